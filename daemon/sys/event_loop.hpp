@@ -1,0 +1,44 @@
+// A minimal epoll loop: file descriptors with a callback each. Timers are timerfds with
+// absolute CLOCK_MONOTONIC deadlines (Timer below); signals arrive through a signalfd.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+
+#include "sys/posix.hpp"
+
+namespace drivebus::sys {
+
+class EventLoop {
+public:
+    EventLoop();
+
+    // Calls `on_ready` whenever `fd` is readable (or hung up). The loop does not own `fd`.
+    void add(int fd, std::function<void()> on_ready);
+    void remove(int fd);
+    // Runs until stop(); returns the error that ended it, if any.
+    std::expected<void, SysError> run();
+    void stop() noexcept { running_ = false; }
+
+private:
+    UniqueFd epoll_;
+    std::map<int, std::shared_ptr<std::function<void()>>> handlers_;
+    bool running_ = false;
+};
+
+// A one-shot timerfd armed at absolute monotonic times.
+class Timer {
+public:
+    Timer();
+    [[nodiscard]] int fd() const noexcept { return fd_.get(); }
+    void arm(rtu::Instant at);
+    void disarm();
+    // Reads the expiry count (call from the readable callback).
+    void acknowledge() noexcept;
+
+private:
+    UniqueFd fd_;
+};
+
+}  // namespace drivebus::sys
