@@ -1,0 +1,68 @@
+// The simulated line as the drives see it: frames in, bytes out with the time each must reach
+// the master. Pure: the event loop feeds it frames and writes what it plans.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "drive.hpp"
+#include "faults.hpp"
+#include "rtu/framer.hpp"
+#include "rtu/timing.hpp"
+
+namespace drivebus::sim {
+
+// One byte to send, and when it must have arrived at the other end (the end of its
+// character on the wire).
+struct TxByte {
+    rtu::Instant at{};
+    std::uint8_t value = 0;
+};
+using TxPlan = std::vector<TxByte>;
+
+struct BusOptions {
+    rtu::CharacterTiming timing{};
+    rtu::Duration turnaround{std::chrono::milliseconds(1)};  // drive processing time after end of frame
+    bool pace = true;                                        // space reply characters by the character time
+    std::uint32_t seed = 1;                                  // for the shares of faulty replies
+};
+
+class Bus {
+public:
+    explicit Bus(BusOptions options);
+
+    void add(std::unique_ptr<ProfileDrive> drive);
+    [[nodiscard]] ProfileDrive* drive(rtu::SlaveAddress address) noexcept;
+    [[nodiscard]] std::vector<rtu::SlaveAddress> addresses() const;
+
+    // A complete frame: a drive sees its end t3.5 after its last character, then answers
+    // after the turnaround. Returns the reply (and any injected noise) as timed bytes.
+    [[nodiscard]] TxPlan on_frame(const rtu::Frame& frame);
+    // A frame the framer discarded.
+    void on_discarded(const rtu::DiscardedFrame& discarded);
+    // Bytes received, each ending at the given time: with echo on, they come straight back,
+    // as a 2-wire adapter's receiver hears the master's own transmission.
+    [[nodiscard]] TxPlan on_received(std::span<const std::uint8_t> bytes, rtu::Instant last_char_end);
+    // Lets every drive's time run to `now`.
+    void advance(rtu::Instant now);
+
+    [[nodiscard]] FaultTable& faults() noexcept { return faults_; }
+    [[nodiscard]] const FaultCounters& counters() const noexcept { return counters_; }
+    [[nodiscard]] const BusOptions& options() const noexcept { return options_; }
+
+private:
+    [[nodiscard]] TxPlan plan_reply(const rtu::Adu& reply, const DriveFaults& faults, rtu::Instant start);
+    [[nodiscard]] bool chance(double share);
+
+    BusOptions options_;
+    std::map<rtu::SlaveAddress, std::unique_ptr<ProfileDrive>> drives_;
+    FaultTable faults_;
+    FaultCounters counters_;
+    std::mt19937 rng_;
+};
+
+}  // namespace drivebus::sim

@@ -1,0 +1,21 @@
+// Commands of the control socket and the --fault / --option command-line arguments, applied
+// to a Bus. One line in, one line out.
+#pragma once
+
+#include <expected>
+#include <string>
+#include <string_view>
+
+#include "bus.hpp"
+
+namespace drivebus::sim {
+
+// Runs one control command; returns "ok ..." or "error: ...".
+[[nodiscard]] std::string run_command(Bus& bus, std::string_view line, rtu::Instant now);
+
+// "[ADDR:]key=value", as --fault takes it.
+[[nodiscard]] std::expected<void, std::string> apply_fault_argument(Bus& bus, std::string_view argument);
+// "ADDR:key=value", as --option takes it.
+[[nodiscard]] std::expected<void, std::string> apply_option_argument(Bus& bus, std::string_view argument);
+
+}  // namespace drivebus::sim

@@ -1,0 +1,74 @@
+// A simulated drive: answers the requests addressed to it as the real drive would and lets
+// time pass (ramps, time-outs). Pure: time is an argument, nothing here does I/O.
+#pragma once
+
+#include <cstdint>
+#include <expected>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "drivebus/profile.hpp"
+#include "register_bank.hpp"
+#include "rtu/pdu.hpp"
+#include "rtu/timing.hpp"
+
+namespace drivebus::sim {
+
+// A drive whose behaviour is its profile: registers, access, ranges and function limits.
+// The Altivar 58 is this; the Altivar 21 adds its indirect blocks, identification and motor.
+class ProfileDrive {
+public:
+    ProfileDrive(rtu::SlaveAddress address, std::shared_ptr<const Profile> profile);
+    virtual ~ProfileDrive() = default;
+    ProfileDrive(const ProfileDrive&) = delete;
+    ProfileDrive& operator=(const ProfileDrive&) = delete;
+    ProfileDrive(ProfileDrive&&) = delete;
+    ProfileDrive& operator=(ProfileDrive&&) = delete;
+
+    [[nodiscard]] rtu::SlaveAddress address() const noexcept { return address_; }
+    [[nodiscard]] const Profile& profile() const noexcept { return *profile_; }
+
+    // A decoded request addressed to this drive, or broadcast (whose reply is not sent).
+    [[nodiscard]] rtu::Response handle(const rtu::Request& request, bool broadcast, rtu::Instant now);
+    // Lets time run to `now`.
+    virtual void advance(rtu::Instant now);
+
+    // Operator access from the control socket: any register, no access or range check.
+    [[nodiscard]] std::expected<std::uint16_t, std::string> peek(std::string_view name) const;
+    [[nodiscard]] std::expected<void, std::string> poke(std::string_view name, std::uint16_t value);
+    // Operator settings that are not registers (motor load, ...); false if unknown.
+    virtual bool set_option(std::string_view key, double value);
+
+protected:
+    virtual rtu::Response read(const rtu::ReadHoldingRegisters& request, rtu::Instant now);
+    virtual rtu::Response write_single(const rtu::WriteSingleRegister& request, rtu::Instant now);
+    virtual rtu::Response write_multiple(const rtu::WriteMultipleRegisters& request, rtu::Instant now);
+    virtual rtu::Response identify(const rtu::ReadDeviceIdentification& request, rtu::Instant now);
+    // A master wrote `value` to `address` (already checked); the drive reacts.
+    virtual void on_write(std::uint16_t address, std::uint16_t value, rtu::Instant now);
+    // A drive-specific check of a write the profile allows (e.g. a reference above the
+    // maximum frequency); nullopt accepts it.
+    [[nodiscard]] virtual std::optional<rtu::ExceptionCode> refuse_write(std::uint16_t address,
+                                                                         std::uint16_t value) const;
+    // Called for every request before it is handled.
+    virtual void on_request(bool broadcast, rtu::Instant now);
+
+    static rtu::Response exception(rtu::FunctionCode function, rtu::ExceptionCode code);
+
+    RegisterBank& bank() noexcept { return bank_; }
+    [[nodiscard]] const RegisterBank& bank() const noexcept { return bank_; }
+
+private:
+    rtu::SlaveAddress address_;
+    std::shared_ptr<const Profile> profile_;
+    RegisterBank bank_;
+};
+
+// Makes the drive for a profile type ("atv21", "atv58", or any other profile as a plain
+// ProfileDrive).
+[[nodiscard]] std::unique_ptr<ProfileDrive> make_drive(rtu::SlaveAddress address,
+                                                       std::shared_ptr<const Profile> profile);
+
+}  // namespace drivebus::sim

@@ -1,0 +1,47 @@
+#include "writer.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+
+namespace drivebus::sim {
+
+PacedWriter::PacedWriter(int fd, rtu::Duration spin) : fd_(fd), spin_(spin) {}
+
+void PacedWriter::enqueue(const TxPlan& plan) {
+    for (const TxByte& b : plan) {
+        const auto pos = std::upper_bound(queue_.begin(), queue_.end(), b.at,
+                                          [](rtu::Instant t, const TxByte& q) { return t < q.at; });
+        queue_.insert(pos, b);
+    }
+    service();
+}
+
+void PacedWriter::service() {
+    timer_.acknowledge();
+    while (!queue_.empty()) {
+        rtu::Instant now = sys::now();
+        const rtu::Duration wait = queue_.front().at - now;
+        if (wait > spin_) {
+            timer_.arm(queue_.front().at - spin_);
+            return;
+        }
+        while (now < queue_.front().at) {
+            now = sys::now();
+        }
+        std::array<std::uint8_t, 256> burst{};
+        std::size_t n = 0;
+        while (!queue_.empty() && queue_.front().at <= now && n < burst.size()) {
+            burst[n++] = queue_.front().value;
+            queue_.pop_front();
+        }
+        const auto wrote = sys::posix_call("write", [&] { return ::write(fd_, burst.data(), n); });
+        const std::size_t sent = wrote ? static_cast<std::size_t>(*wrote) : 0;
+        written_ += sent;
+        lost_ += n - sent;
+    }
+    timer_.disarm();
+}
+
+}  // namespace drivebus::sim
