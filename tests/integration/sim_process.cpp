@@ -1,0 +1,256 @@
+#include "sim_process.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "rtu/codec.hpp"
+#include "serial/termios.hpp"
+
+namespace drivebus::test {
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (!condition()) {
+        if (std::chrono::steady_clock::now() > deadline) {
+            return false;
+        }
+        std::this_thread::sleep_for(2ms);
+    }
+    return true;
+}
+
+namespace {
+
+fs::path fresh_dir() {
+    std::string pattern = (fs::temp_directory_path() / "drivebus-sim-test-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) {
+        throw std::runtime_error("mkdtemp failed");
+    }
+    return pattern;
+}
+
+int spawn(const std::vector<std::string>& args, const fs::path& log) {
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+        throw std::runtime_error("fork failed");
+    }
+    if (pid == 0) {
+        const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        ::dup2(out, STDERR_FILENO);
+        ::dup2(out, STDOUT_FILENO);
+        std::vector<char*> argv;
+        std::string program = DRIVEBUS_SIM_PATH;
+        argv.push_back(program.data());
+        std::vector<std::string> copy = args;
+        for (auto& a : copy) {
+            argv.push_back(a.data());
+        }
+        argv.push_back(nullptr);
+        ::execv(program.c_str(), argv.data());
+        ::_exit(127);
+    }
+    return pid;
+}
+
+int wait_exit(int pid, std::chrono::milliseconds timeout) {
+    int status = 0;
+    const bool done = wait_until([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, timeout);
+    if (!done) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        return -1;
+    }
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string slurp(const fs::path& file) {
+    std::ifstream in(file);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+SimProcess::SimProcess(std::vector<std::string> args)
+    : dir_(fresh_dir()), link_(dir_ / "tty"), control_(dir_ / "control"), log_(dir_ / "sim.log") {
+    args.insert(args.begin(), {"--link", link_.string(), "--control", control_.string()});
+    pid_ = spawn(args, log_);
+    // The simulator prints its one-line banner once the line and the control socket are up.
+    const bool ready = wait_until(
+        [&] {
+            std::error_code ec;
+            return fs::exists(link_, ec) && output().find(", drives ") != std::string::npos;
+        },
+        5s);
+    if (!ready) {
+        stop();
+        throw std::runtime_error("drivebus-sim did not start: " + output());
+    }
+}
+
+SimProcess::~SimProcess() {
+    stop();
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+}
+
+int SimProcess::stop() {
+    if (pid_ < 0) {
+        return -1;
+    }
+    ::kill(pid_, SIGTERM);
+    const int status = wait_exit(pid_, 5s);
+    pid_ = -1;
+    return status;
+}
+
+std::string SimProcess::output() const {
+    return slurp(log_);
+}
+
+std::string SimProcess::command(const std::string& line) const {
+    sys::UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, control_.c_str(), sizeof addr.sun_path - 1);
+    if (::connect(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+        return "error: cannot connect to the control socket";
+    }
+    const std::string request = line + "\n";
+    if (::write(fd.get(), request.data(), request.size()) != static_cast<ssize_t>(request.size())) {
+        return "error: write failed";
+    }
+    std::string answer;
+    std::array<char, 512> buffer{};
+    pollfd p{fd.get(), POLLIN, 0};
+    while (answer.find('\n') == std::string::npos && ::poll(&p, 1, 5000) > 0) {
+        const auto n = ::read(fd.get(), buffer.data(), buffer.size());
+        if (n <= 0) {
+            break;
+        }
+        answer.append(buffer.data(), static_cast<std::size_t>(n));
+    }
+    if (!answer.empty() && answer.back() == '\n') {
+        answer.pop_back();
+    }
+    return answer;
+}
+
+std::pair<int, std::string> run_sim(const std::vector<std::string>& args) {
+    const fs::path dir = fresh_dir();
+    const fs::path log = dir / "sim.log";
+    const int pid = spawn(args, log);
+    const int status = wait_exit(pid, 5s);
+    std::string out = slurp(log);
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    return {status, out};
+}
+
+TestMaster::TestMaster(const fs::path& device, const rtu::LineFormat& format)
+    : timing_(rtu::character_timing(format).value()), framer_(timing_, rtu::InputMarking::Plain) {
+    fd_.reset(::open(device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC));
+    if (!fd_) {
+        throw std::runtime_error("cannot open " + device.string() + ": " + std::strerror(errno));
+    }
+    if (auto ok = serial::configure_line(fd_.get(), format, serial::ErrorMarking::Off); !ok) {
+        throw std::runtime_error(ok.error().message());
+    }
+}
+
+void TestMaster::wait_silence() {
+    if (const auto last = framer_.last_activity()) {
+        const auto until = *last + timing_.t3_5;
+        wait_until([&] { return sys::now() >= until; }, 1s);
+    }
+}
+
+Reception TestMaster::transact(const rtu::RequestAdu& request, std::chrono::milliseconds timeout) {
+    const auto adu = rtu::encode_request(request);
+    if (!adu) {
+        throw std::runtime_error("test request does not encode");
+    }
+    return transact({adu->bytes().begin(), adu->bytes().end()}, request, timeout);
+}
+
+Reception TestMaster::transact(const std::vector<std::uint8_t>& request, const rtu::RequestAdu& expect,
+                               std::chrono::milliseconds timeout) {
+    wait_silence();
+    Reception r;
+    framer_.expect_reply(expect);
+    // Taken before the write: the other end may read the bytes before write() returns here.
+    r.written = sys::now();
+    if (::write(fd_.get(), request.data(), request.size()) != static_cast<ssize_t>(request.size())) {
+        throw std::runtime_error("write to the pty failed");
+    }
+    const auto deadline = r.written + timeout;
+    std::array<std::uint8_t, 512> buffer{};
+    auto take_events = [&] {
+        while (auto event = framer_.next_event()) {
+            if (auto* frame = std::get_if<rtu::Frame>(&*event)) {
+                if (!r.reply && rtu::decode_response(expect, frame->adu.bytes()).has_value()) {
+                    r.reply = *frame;
+                } else {
+                    r.other_frames.push_back(*frame);
+                }
+            } else {
+                r.discarded.push_back(std::get<rtu::DiscardedFrame>(*event));
+            }
+        }
+    };
+    auto find_decoded = [&] {
+        for (std::size_t start = 0; start < r.bytes.size() && !r.decoded; ++start) {
+            if (auto reply = rtu::decode_response(expect, std::span(r.bytes).subspan(start))) {
+                r.decoded = std::move(*reply);
+                r.decoded_at = start;
+            }
+        }
+    };
+    // Read until the reply is in the bytes and the framer has finished with them.
+    while (!(r.decoded && !framer_.frame_open())) {
+        const auto now = sys::now();
+        if (now >= deadline) {
+            break;
+        }
+        auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now).count() + 1;
+        if (const auto frame_deadline = framer_.deadline()) {
+            const auto until_frame =
+                std::chrono::duration_cast<std::chrono::milliseconds>(*frame_deadline - now).count() + 1;
+            wait = std::min(wait, std::max<long>(until_frame, 0));
+        }
+        pollfd p{fd_.get(), POLLIN, 0};
+        if (::poll(&p, 1, static_cast<int>(wait)) > 0) {
+            const auto n = ::read(fd_.get(), buffer.data(), buffer.size());
+            const auto t = sys::now();
+            if (n > 0) {
+                for (ssize_t i = 0; i < n; ++i) {
+                    r.bytes.push_back(buffer[static_cast<std::size_t>(i)]);
+                    r.byte_times.push_back(t);
+                }
+                framer_.feed({buffer.data(), static_cast<std::size_t>(n)}, t);
+                find_decoded();
+            }
+        }
+        framer_.poll(sys::now());
+        take_events();
+    }
+    framer_.expect_requests();
+    return r;
+}
+
+}  // namespace drivebus::test

@@ -1,0 +1,91 @@
+// Test harness: drivebus-sim as a child process on a pty, and a minimal master on the other
+// side. Every wait is for a condition, with a deadline.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rtu/framer.hpp"
+#include "rtu/pdu.hpp"
+#include "rtu/timing.hpp"
+#include "sys/posix.hpp"
+
+namespace drivebus::test {
+
+// Polls `condition` until it holds or `timeout` passes.
+bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout);
+
+class SimProcess {
+public:
+    // Starts drivebus-sim with a pty link and a control socket in a fresh directory, plus
+    // `args`, and waits until both exist.
+    explicit SimProcess(std::vector<std::string> args);
+    ~SimProcess();
+    SimProcess(const SimProcess&) = delete;
+    SimProcess& operator=(const SimProcess&) = delete;
+    SimProcess(SimProcess&&) = delete;
+    SimProcess& operator=(SimProcess&&) = delete;
+
+    [[nodiscard]] const std::filesystem::path& link() const noexcept { return link_; }
+    // Sends one control command and returns the answer line.
+    [[nodiscard]] std::string command(const std::string& line) const;
+    // SIGTERM, then waits for the exit; returns the exit status (or -1 on a signal).
+    int stop();
+    [[nodiscard]] std::string output() const;  // what it wrote to stderr
+
+private:
+    std::filesystem::path dir_;
+    std::filesystem::path link_;
+    std::filesystem::path control_;
+    std::filesystem::path log_;
+    int pid_ = -1;
+};
+
+// Runs drivebus-sim to completion with `args` (for argument errors); returns its exit status
+// and stderr.
+std::pair<int, std::string> run_sim(const std::vector<std::string>& args);
+
+struct Reception {
+    rtu::Instant written{};                // just before the request's write()
+    std::vector<std::uint8_t> bytes;       // everything read, in order
+    std::vector<rtu::Instant> byte_times;  // read time of each byte
+    // What the master's framer made of the bytes (its timestamps include this process's
+    // wake-up delays, which a pty adds and a UART would not):
+    std::optional<rtu::Frame> reply;       // the reply, if one was framed
+    std::vector<rtu::Frame> other_frames;  // good frames that are not that reply (an echo)
+    std::vector<rtu::DiscardedFrame> discarded;
+    // The reply found in the bytes themselves: the last bytes that decode as a reply to the
+    // request, and where they start.
+    std::optional<rtu::ResponseAdu> decoded;
+    std::size_t decoded_at = 0;
+};
+
+// A master on the pty: raw termios, plain bytes, a framer expecting each reply.
+class TestMaster {
+public:
+    TestMaster(const std::filesystem::path& device, const rtu::LineFormat& format);
+
+    // Sends `request` (pre-encoded bytes) and reads until a reply to `expect` is framed, or
+    // `timeout` passes (then `reply` is empty).
+    Reception transact(const std::vector<std::uint8_t>& request, const rtu::RequestAdu& expect,
+                       std::chrono::milliseconds timeout = std::chrono::milliseconds(1000));
+    // Encodes `request` with the spec's limits and transacts.
+    Reception transact(const rtu::RequestAdu& request,
+                       std::chrono::milliseconds timeout = std::chrono::milliseconds(1000));
+    // Waits until t3.5 has passed since the last byte (the line is free).
+    void wait_silence();
+
+    [[nodiscard]] const rtu::CharacterTiming& timing() const noexcept { return timing_; }
+
+private:
+    sys::UniqueFd fd_;
+    rtu::CharacterTiming timing_;
+    rtu::Framer framer_;
+};
+
+}  // namespace drivebus::test
