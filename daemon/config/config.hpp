@@ -1,0 +1,105 @@
+// drivebusd's configuration: parsed and validated once at start-up into this immutable
+// struct. Nothing is opened before it is valid. See docs/configuration.md.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "drivebus/profile.hpp"
+#include "rtu/timing.hpp"
+#include "serial/direction.hpp"
+
+namespace drivebus::config {
+
+using Duration = std::chrono::nanoseconds;
+
+enum class DirectionMode : std::uint8_t { Kernel, Gpio, Rts, None };
+enum class EchoMode : std::uint8_t { Off, On, Auto };
+
+// A register a poll group reads: resolved against the drive's profile.
+struct PolledRegister {
+    std::string name;         // the profile's name ("FD00"), or "0x1234" for a bare number
+    std::uint16_t address = 0;
+};
+
+struct PollGroup {
+    std::string name;                       // "fast", or "group1" when unnamed
+    std::vector<PolledRegister> registers;  // in the order given
+    Duration period{};
+    // Read through the drive's indirect read block (ATV21: 0x1875, up to 5 registers chosen
+    // by F875-F879, which drivebusd writes when the drive comes online): one transaction.
+    bool indirect = false;
+};
+
+struct DriveConfig {
+    std::string name;                         // unique on the bus
+    std::uint8_t address = 1;
+    std::shared_ptr<const Profile> profile;   // loaded by type
+    std::vector<PollGroup> polls;
+    // A request at least this often even when nothing polls the drive, so that it stays
+    // inside its Modbus time-out (ATV21 F803). Absent: off.
+    std::optional<Duration> keep_alive;
+};
+
+struct BusConfig {
+    std::string name;                        // unique; names the iceoryx services
+    std::filesystem::path device;
+    rtu::LineFormat format;                  // default 19200 8E1
+    DirectionMode direction = DirectionMode::None;
+    serial::KernelRs485Options kernel;       // for DirectionMode::Kernel
+    std::optional<serial::GpioOptions> gpio; // required for DirectionMode::Gpio
+    // Used when the kernel says it has no RS485 support: rts, none, or nullopt (fail).
+    std::optional<DirectionMode> kernel_fallback;
+    EchoMode echo = EchoMode::Off;
+    Duration response_timeout = std::chrono::milliseconds(100);
+    unsigned retries = 2;                    // after the first attempt
+    Duration broadcast_turnaround = std::chrono::milliseconds(10);
+    Duration absent_backoff_min = std::chrono::seconds(1);  // re-probe of an absent drive
+    Duration absent_backoff_max = std::chrono::seconds(30);
+    std::size_t queue_limit = 64;            // client requests waiting on this bus
+    std::filesystem::path lock_dir;          // UUCP lock files; empty: none
+    std::vector<DriveConfig> drives;
+};
+
+enum class RealtimeMode : std::uint8_t { Off, BestEffort, Required };
+
+struct RealtimeConfig {
+    RealtimeMode mode = RealtimeMode::BestEffort;
+    int priority = 50;            // SCHED_FIFO priority of the bus threads, 1-99
+    std::vector<int> cpus;        // CPU affinity of the bus threads; empty: any
+    bool lock_memory = true;      // mlockall(MCL_CURRENT | MCL_FUTURE)
+};
+
+struct Config {
+    std::filesystem::path source;
+    std::vector<BusConfig> buses;
+    RealtimeConfig realtime;
+};
+
+// One line naming the file, the place and the problem:
+// "drivebusd.toml: bus 'line1' drive 'pump': address 40 is outside 1-31 for an Altivar 58".
+struct ConfigError {
+    std::string message;
+};
+
+// Where profiles come from: by type along profile_search_path(), unless a directory is given.
+struct LoadOptions {
+    std::optional<std::filesystem::path> profile_dir;
+};
+
+[[nodiscard]] std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
+                                                              const LoadOptions& options = {});
+[[nodiscard]] std::expected<Config, ConfigError> load_config(const std::filesystem::path& file,
+                                                             const LoadOptions& options = {});
+
+// "kernel", "gpio", ...
+[[nodiscard]] std::string_view to_string(DirectionMode mode) noexcept;
+[[nodiscard]] std::string_view to_string(EchoMode mode) noexcept;
+
+}  // namespace drivebus::config

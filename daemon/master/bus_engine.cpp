@@ -1,0 +1,285 @@
+#include "master/bus_engine.hpp"
+
+#include <algorithm>
+
+#include "rtu/codec.hpp"
+
+namespace drivebus::master {
+namespace {
+
+EchoSetting echo_setting(config::EchoMode mode) {
+    switch (mode) {
+    case config::EchoMode::On: return EchoSetting::On;
+    case config::EchoMode::Auto: return EchoSetting::Auto;
+    case config::EchoMode::Off: return EchoSetting::Off;
+    }
+    return EchoSetting::Off;
+}
+
+}  // namespace
+
+BusEngine::BusEngine(const config::BusConfig& bus, rtu::CharacterTiming timing, EngineCallbacks callbacks,
+                     rtu::Instant now)
+    : bus_(bus),
+      timing_(timing),
+      callbacks_(std::move(callbacks)),
+      framer_(timing, rtu::InputMarking::Parmrk),
+      echo_(echo_setting(bus.echo)),
+      scheduler_(bus, now),
+      options_{bus.response_timeout, bus.retries, bus.broadcast_turnaround} {
+    status_.name = bus.name;
+}
+
+void BusEngine::line_up(rtu::Instant now) {
+    up_ = true;
+    status_.up = true;
+    framer_.reset();
+    last_tx_end_.reset();
+    scheduler_.line_up(now);
+    ++status_.sequence;
+}
+
+void BusEngine::line_down(rtu::Instant now) {
+    if (!up_) {
+        return;
+    }
+    up_ = false;
+    status_.up = false;
+    ++status_.counters.line_down;
+    if (transaction_) {
+        transaction_->abort(now);
+        finish_if_done(now);
+    }
+    transmitting_ = false;
+    scheduler_.line_down(now);
+    ++status_.sequence;
+}
+
+rtu::Instant BusEngine::line_free_at() const noexcept {
+    rtu::Instant last{};
+    if (const auto rx = framer_.last_activity()) {
+        last = *rx;
+    }
+    if (last_tx_end_ && *last_tx_end_ > last) {
+        last = *last_tx_end_;
+    }
+    return last + timing_.t3_5;
+}
+
+void BusEngine::on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_time) {
+    if (echo_.status() == EchoFilter::Status::Pending) {
+        // Auto mode: bytes that begin after the echo could have started are not an echo.
+        const rtu::Instant first = read_time - timing_.character * static_cast<std::int64_t>(bytes.size() - 1);
+        if (echo_deadline_ && first > *echo_deadline_) {
+            echo_.no_echo();
+        }
+        const std::size_t used = echo_.consume(bytes);
+        if (echo_.status() == EchoFilter::Status::Mismatch) {
+            ++status_.counters.echo_mismatches;
+            if (transaction_) {
+                transaction_->on_echo_mismatch(read_time);
+            }
+        }
+        bytes = bytes.subspan(used);
+    }
+    if (!bytes.empty()) {
+        framer_.feed(bytes, read_time);
+    }
+    take_events(read_time);
+    finish_if_done(read_time);
+}
+
+void BusEngine::on_time(rtu::Instant now) {
+    framer_.poll(now);
+    take_events(now);
+    if (echo_deadline_ && now >= *echo_deadline_) {
+        echo_.no_echo();
+        echo_deadline_.reset();
+    }
+    if (transaction_) {
+        const auto state = transaction_->state();
+        transaction_->on_time(now);
+        if (state == Transaction::State::AwaitingReply && transaction_->state() != state) {
+            ++status_.counters.timeouts;
+            if (job_->drive != kNoDrive) {
+                ++scheduler_.counters(job_->drive).timeouts;
+            }
+        }
+    }
+    finish_if_done(now);
+}
+
+void BusEngine::take_events(rtu::Instant now) {
+    while (auto event = framer_.next_event()) {
+        if (const auto* frame = std::get_if<rtu::Frame>(&*event)) {
+            const auto verdict = transaction_ ? transaction_->on_frame(*frame) : Transaction::Verdict::Ignored;
+            switch (verdict) {
+            case Transaction::Verdict::Reply: ++status_.counters.replies; break;
+            case Transaction::Verdict::Malformed: ++status_.counters.malformed; break;
+            case Transaction::Verdict::Foreign:
+            case Transaction::Verdict::Ignored: ++status_.counters.foreign; break;
+            }
+            continue;
+        }
+        const auto& discarded = std::get<rtu::DiscardedFrame>(*event);
+        switch (discarded.fault) {
+        case rtu::FrameFault::CrcMismatch: ++status_.counters.crc_errors; break;
+        case rtu::FrameFault::InterCharacterGap: ++status_.counters.gap_errors; break;
+        case rtu::FrameFault::ParityOrFraming: ++status_.counters.parity_errors; break;
+        case rtu::FrameFault::Overflow: ++status_.counters.overflows; break;
+        case rtu::FrameFault::TooShort: ++status_.counters.noise; break;
+        }
+        // A spoiled frame of a reply's size while awaiting the reply was the reply, or ruined
+        // it: the attempt failed. Shorter noise is only counted; the reply may follow it.
+        if (transaction_ && discarded.bytes >= rtu::kMinAduSize) {
+            transaction_->on_bad_frame(now);
+        }
+    }
+}
+
+void BusEngine::count_exception(std::optional<rtu::ExceptionCode> code, std::array<std::uint64_t, 12>& table) {
+    if (code) {
+        const auto n = static_cast<std::size_t>(*code);
+        ++table[n < table.size() ? n : 0];
+    }
+}
+
+void BusEngine::finish_if_done(rtu::Instant now) {
+    if (!transaction_ || transaction_->state() != Transaction::State::Done) {
+        return;
+    }
+    const Result result = *transaction_->result();
+    const Job job = *job_;
+    transaction_.reset();
+    job_.reset();
+    framer_.expect_requests();
+    if (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception) {
+        if (job.request.address != rtu::kBroadcastAddress) {
+            status_.reply_latency.add(result.latency);
+        }
+    }
+    count_exception(result.exception(), status_.counters.exceptions);
+    if (job.drive != kNoDrive) {
+        DriveCounters& c = scheduler_.counters(job.drive);
+        if (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception) {
+            ++c.replies;
+        }
+        if (result.outcome == Outcome::BadFrame || result.outcome == Outcome::EchoMismatch) {
+            ++c.bad_frames;
+        }
+        count_exception(result.exception(), c.exceptions);
+    }
+    if (job.kind == JobKind::Client && callbacks_.client_result) {
+        callbacks_.client_result(job.correlation, result);
+    }
+    if (const auto drive = scheduler_.complete(job, result, now)) {
+        if (callbacks_.snapshot) {
+            callbacks_.snapshot(scheduler_.snapshot(*drive));
+        }
+    }
+}
+
+std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now) {
+    if (!up_ || transmitting_ || framer_.frame_open() || now < line_free_at()) {
+        return std::nullopt;
+    }
+    if (!transaction_) {
+        auto job = scheduler_.next(now);
+        if (!job) {
+            return std::nullopt;
+        }
+        const rtu::FunctionLimits limits =
+            job->drive == kNoDrive ? rtu::FunctionLimits::modbus_spec() : scheduler_.limits(job->drive);
+        auto adu = rtu::encode_request(job->request, limits);
+        if (!adu) {
+            // Requests are validated before they are queued; this one is dropped, not sent.
+            Result rejected;
+            rejected.outcome = Outcome::BusDown;
+            rejected.finished = now;
+            if (job->kind == JobKind::Client && callbacks_.client_result) {
+                callbacks_.client_result(job->correlation, rejected);
+            }
+            return std::nullopt;
+        }
+        TransactionOptions options = options_;
+        if (job->retries) {
+            options.retries = *job->retries;
+        }
+        transaction_.emplace(options, job->request, *adu);
+        job_ = std::move(*job);
+    }
+    if (transaction_->state() != Transaction::State::ReadyToSend) {
+        return std::nullopt;
+    }
+    if (transaction_->attempts() > 0) {
+        ++status_.counters.retries;
+        if (job_->drive != kNoDrive) {
+            ++scheduler_.counters(job_->drive).retries;
+        }
+    }
+    status_.extra_gap.add(now - line_free_at());
+    return transaction_->adu();
+}
+
+void BusEngine::written(rtu::Instant now) {
+    if (!transaction_) {
+        return;
+    }
+    transmitting_ = true;
+    transaction_->written(now);
+    ++status_.counters.transmissions;
+    if (transaction_->broadcast()) {
+        ++status_.counters.broadcasts;
+    } else {
+        framer_.expect_reply(transaction_->request());
+        if (job_->drive != kNoDrive) {
+            ++scheduler_.counters(job_->drive).requests;
+        }
+    }
+    echo_.expect(transaction_->adu());
+    echo_deadline_.reset();
+    if (echo_.setting() == EchoSetting::Auto) {
+        // An echo starts while we transmit; allow the first character plus t3.5 of read latency.
+        echo_deadline_ = now + timing_.character + timing_.t3_5;
+    }
+}
+
+void BusEngine::transmitted(rtu::Instant tx_end) {
+    transmitting_ = false;
+    last_tx_end_ = tx_end;
+    if (transaction_) {
+        transaction_->sent(tx_end);
+    }
+}
+
+std::optional<rtu::Instant> BusEngine::next_wakeup() const {
+    std::optional<rtu::Instant> wake;
+    auto consider = [&](std::optional<rtu::Instant> t) {
+        if (t && (!wake || *t < *wake)) {
+            wake = t;
+        }
+    };
+    consider(framer_.deadline());
+    consider(echo_deadline_);
+    if (transaction_) {
+        consider(transaction_->deadline());
+        if (transaction_->state() == Transaction::State::ReadyToSend) {
+            consider(line_free_at());
+        }
+    } else if (up_ && !transmitting_) {
+        if (const auto due = scheduler_.next_due()) {
+            consider(std::max(*due, line_free_at()));
+        }
+    }
+    return wake;
+}
+
+std::expected<void, SubmitError> BusEngine::submit(ClientRequest request) {
+    auto ok = scheduler_.submit(std::move(request));
+    if (!ok && ok.error() == SubmitError::QueueFull) {
+        ++status_.counters.queue_rejections;
+    }
+    return ok;
+}
+
+}  // namespace drivebus::master

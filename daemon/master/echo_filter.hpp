@@ -1,0 +1,46 @@
+// Local echo on 2-wire adapters: the receiver hears the master's own transmission. The filter
+// takes exactly the echoed request bytes off the received stream and checks them; a mismatch
+// is a bus collision. In auto mode the first transaction decides whether there is an echo.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+#include "rtu/types.hpp"
+
+namespace drivebus::master {
+
+enum class EchoSetting : std::uint8_t { Off, On, Auto };
+
+class EchoFilter {
+public:
+    enum class Status : std::uint8_t {
+        Idle,      // nothing expected
+        Pending,   // part of the echo still to come
+        Matched,   // the whole echo arrived and matched
+        Mismatch,  // it differed: a collision
+    };
+
+    explicit EchoFilter(EchoSetting setting) noexcept : setting_(setting) {}
+
+    // A request was written.
+    void expect(const rtu::Adu& sent) noexcept;
+    // Takes the echo off the front of `bytes`; returns how many bytes it consumed (the rest
+    // belong to the reply).
+    std::size_t consume(std::span<const std::uint8_t> bytes) noexcept;
+    [[nodiscard]] Status status() const noexcept { return status_; }
+    // Nothing arrived that could be the echo before the reply was due: in auto mode, there
+    // is none.
+    void no_echo() noexcept;
+    [[nodiscard]] EchoSetting setting() const noexcept { return setting_; }
+    // Auto mode has made up its mind (On or Off).
+    [[nodiscard]] bool decided() const noexcept { return setting_ != EchoSetting::Auto; }
+
+private:
+    EchoSetting setting_;
+    rtu::Adu expected_;
+    std::size_t matched_ = 0;
+    Status status_ = Status::Idle;
+};
+
+}  // namespace drivebus::master

@@ -1,0 +1,126 @@
+// What the bus sends next: client requests (writes first, fair between clients), the set-up a
+// drive needs, poll groups at their periods, keep-alives inside each drive's Modbus time-out,
+// and back-off probes of absent drives. Pure: time is an argument.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <expected>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include "config/config.hpp"
+#include "master/result.hpp"
+#include "master/snapshot.hpp"
+#include "rtu/limits.hpp"
+#include "rtu/pdu.hpp"
+
+namespace drivebus::master {
+
+enum class JobKind : std::uint8_t { Setup, Client, Poll, KeepAlive, Probe };
+
+// A register window read in one transaction; for an indirect block, `addresses` are the
+// registers its slots hold.
+struct ReadChunk {
+    std::uint16_t start = 0;
+    std::uint16_t quantity = 0;
+    std::vector<std::uint16_t> addresses;
+};
+
+struct ClientRequest {
+    std::uint64_t client = 0;       // who asked (for fairness)
+    std::uint64_t correlation = 0;  // echoed in the result
+    rtu::RequestAdu request;
+};
+
+struct Job {
+    JobKind kind = JobKind::Poll;
+    std::size_t drive = 0;  // index into the bus's drives; kNoDrive for a broadcast
+    std::size_t group = 0;
+    std::size_t chunk = 0;
+    std::uint64_t client = 0;
+    std::uint64_t correlation = 0;
+    rtu::RequestAdu request;
+    std::optional<unsigned> retries;  // overrides the bus setting (probes: none)
+};
+inline constexpr std::size_t kNoDrive = static_cast<std::size_t>(-1);
+
+enum class SubmitError : std::uint8_t { QueueFull, UnknownDrive };
+
+class Scheduler {
+public:
+    Scheduler(const config::BusConfig& bus, rtu::Instant start);
+
+    // A client request; validated by the caller. Rejected when the queue is full.
+    std::expected<void, SubmitError> submit(ClientRequest request);
+    // The job to send now, if any.
+    [[nodiscard]] std::optional<Job> next(rtu::Instant now);
+    // When next() may have something, if nothing is due now.
+    [[nodiscard]] std::optional<rtu::Instant> next_due() const;
+    // A job finished (the bus runs one at a time: next() is asked only between jobs).
+    // Returns the drive whose snapshot is due: its poll cycle completed, or it went absent.
+    std::optional<std::size_t> complete(const Job& job, const Result& result, rtu::Instant now);
+    // The line went down: everything in flight is abandoned; polls restart when it is back.
+    void line_down(rtu::Instant now);
+    void line_up(rtu::Instant now);
+
+    [[nodiscard]] std::size_t drive_count() const noexcept { return drives_.size(); }
+    [[nodiscard]] DriveSnapshot snapshot(std::size_t drive) const;
+    [[nodiscard]] Health health(std::size_t drive) const noexcept { return drives_[drive].health; }
+    [[nodiscard]] std::size_t queued() const noexcept { return queued_; }
+    // The drive at `address`, if configured.
+    [[nodiscard]] std::optional<std::size_t> drive_at(rtu::SlaveAddress address) const noexcept;
+    [[nodiscard]] const rtu::FunctionLimits& limits(std::size_t drive) const noexcept { return drives_[drive].limits; }
+    DriveCounters& counters(std::size_t drive) noexcept { return drives_[drive].counters; }
+
+private:
+    struct Group {
+        const config::PollGroup* config = nullptr;
+        std::vector<ReadChunk> chunks;
+        rtu::Instant next_due{};
+        std::optional<std::size_t> cursor;  // next chunk of a cycle in progress
+    };
+    struct Drive {
+        const config::DriveConfig* config = nullptr;
+        rtu::FunctionLimits limits;
+        std::vector<Group> groups;
+        std::vector<std::pair<std::uint16_t, std::uint16_t>> setup;  // selector writes for the indirect block
+        std::size_t setup_cursor = 0;
+        bool setup_done = true;
+        Health health = Health::Unknown;
+        rtu::Instant last_contact{};
+        rtu::Duration backoff{};
+        rtu::Instant next_probe{};
+        std::map<std::uint16_t, RegisterValue> values;
+        DriveCounters counters;
+        std::uint64_t sequence = 0;
+    };
+
+    [[nodiscard]] std::optional<Job> next_client();
+    [[nodiscard]] std::optional<Job> next_setup();
+    [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
+    [[nodiscard]] std::optional<Job> next_keep_alive(rtu::Instant now);
+    [[nodiscard]] std::optional<Job> next_probe(rtu::Instant now);
+    [[nodiscard]] Job read_job(JobKind kind, std::size_t drive, std::size_t group, std::size_t chunk) const;
+    void mark_absent(std::size_t drive, rtu::Instant now);
+    void mark_present(std::size_t drive, rtu::Instant now);
+    void store(std::size_t drive, const ReadChunk& chunk, const Result& result);
+
+    const config::BusConfig& bus_;
+    std::vector<Drive> drives_;
+    bool line_up_ = true;
+    // Client queues per client, writes and reads apart; served round-robin.
+    std::map<std::uint64_t, std::deque<Job>> writes_;
+    std::map<std::uint64_t, std::deque<Job>> reads_;
+    std::uint64_t last_client_ = 0;
+    std::size_t queued_ = 0;
+};
+
+// The read transactions a poll group needs, within the drive's limits.
+[[nodiscard]] std::vector<ReadChunk> plan_reads(const config::PollGroup& group, const Profile& profile,
+                                                const rtu::FunctionLimits& limits);
+// The drive's function limits, from its profile.
+[[nodiscard]] rtu::FunctionLimits limits_of(const Profile& profile);
+
+}  // namespace drivebus::master

@@ -1,0 +1,118 @@
+#include "master/transaction.hpp"
+
+#include "rtu/codec.hpp"
+
+namespace drivebus::master {
+
+std::string_view to_string(Outcome outcome) noexcept {
+    switch (outcome) {
+    case Outcome::Ok: return "ok";
+    case Outcome::Exception: return "exception";
+    case Outcome::Timeout: return "timeout";
+    case Outcome::BadFrame: return "bad frame";
+    case Outcome::EchoMismatch: return "echo mismatch";
+    case Outcome::BusDown: return "bus down";
+    }
+    return "unknown";
+}
+
+Transaction::Transaction(TransactionOptions options, rtu::RequestAdu request, rtu::Adu adu)
+    : options_(options), request_(std::move(request)), adu_(adu) {}
+
+void Transaction::written(rtu::Instant /*now*/) {
+    if (state_ != State::ReadyToSend) {
+        return;
+    }
+    ++attempts_;
+    state_ = State::Sending;
+    deadline_.reset();
+}
+
+void Transaction::sent(rtu::Instant tx_end) {
+    if (state_ != State::Sending) {
+        return;
+    }
+    tx_end_ = tx_end;
+    if (broadcast()) {
+        state_ = State::BroadcastWait;
+        deadline_ = tx_end + options_.broadcast_turnaround;
+    } else {
+        state_ = State::AwaitingReply;
+        deadline_ = tx_end + options_.response_timeout;
+    }
+}
+
+Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
+    if (state_ != State::AwaitingReply) {
+        return Verdict::Ignored;
+    }
+    const auto reply = rtu::decode_response(request_, frame.adu.bytes());
+    if (!reply) {
+        if (frame.adu.empty() || frame.adu[0] != request_.address) {
+            return Verdict::Foreign;
+        }
+        attempt_failed(Outcome::BadFrame, frame.last);
+        return Verdict::Malformed;
+    }
+    result_ = Result{};
+    result_->response = reply->pdu;
+    result_->latency = frame.last - tx_end_;
+    const bool exception = std::holds_alternative<rtu::ExceptionResponse>(reply->pdu);
+    finish(exception ? Outcome::Exception : Outcome::Ok, frame.last);
+    return Verdict::Reply;
+}
+
+void Transaction::on_bad_frame(rtu::Instant now) {
+    if (state_ == State::AwaitingReply) {
+        attempt_failed(Outcome::BadFrame, now);
+    }
+}
+
+void Transaction::on_echo_mismatch(rtu::Instant now) {
+    if (state_ == State::Sending || state_ == State::AwaitingReply) {
+        attempt_failed(Outcome::EchoMismatch, now);
+    }
+}
+
+void Transaction::abort(rtu::Instant now) {
+    if (state_ != State::Done) {
+        finish(Outcome::BusDown, now);
+    }
+}
+
+void Transaction::on_time(rtu::Instant now) {
+    if (!deadline_ || now < *deadline_) {
+        return;
+    }
+    if (state_ == State::BroadcastWait) {
+        finish(Outcome::Ok, now);
+    } else if (state_ == State::AwaitingReply) {
+        attempt_failed(Outcome::Timeout, now);
+    }
+}
+
+std::optional<rtu::Instant> Transaction::deadline() const noexcept {
+    return deadline_;
+}
+
+void Transaction::attempt_failed(Outcome why, rtu::Instant now) {
+    if (attempts_ <= options_.retries) {
+        state_ = State::ReadyToSend;  // sent again once the line has been silent for t3.5
+        deadline_.reset();
+        return;
+    }
+    finish(why, now);
+}
+
+void Transaction::finish(Outcome outcome, rtu::Instant now) {
+    if (!result_) {
+        result_ = Result{};
+    }
+    result_->outcome = outcome;
+    result_->attempts = attempts_;
+    result_->finished = now;
+    state_ = State::Done;
+    deadline_.reset();
+}
+
+}  // namespace drivebus::master

@@ -1,0 +1,83 @@
+// One request until it has a result: attempts, the response timeout, retries.
+//
+// A pure state machine, driven by the bus loop's events. The timeout of each attempt runs
+// from the moment the request has left the wire (transmitter empty, or its computed wire
+// time), not from write().
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "master/result.hpp"
+#include "rtu/framer.hpp"
+#include "rtu/pdu.hpp"
+#include "rtu/timing.hpp"
+#include "rtu/types.hpp"
+
+namespace drivebus::master {
+
+struct TransactionOptions {
+    rtu::Duration response_timeout = std::chrono::milliseconds(100);
+    unsigned retries = 2;
+    rtu::Duration broadcast_turnaround = std::chrono::milliseconds(10);
+};
+
+class Transaction {
+public:
+    enum class State : std::uint8_t {
+        ReadyToSend,    // waiting for the line to be free
+        Sending,        // written, not yet off the wire
+        AwaitingReply,  // off the wire, response timeout running
+        BroadcastWait,  // broadcast sent, turnaround running
+        Done,
+    };
+    // What a frame received while awaiting the reply turned out to be.
+    enum class Verdict : std::uint8_t {
+        Reply,      // the reply: the transaction is done
+        Foreign,    // from another slave (a late reply, or noise that framed): ignored
+        Malformed,  // from the addressed slave but not a valid reply: the attempt failed
+        Ignored,    // not awaiting a reply
+    };
+
+    Transaction(TransactionOptions options, rtu::RequestAdu request, rtu::Adu adu);
+
+    [[nodiscard]] State state() const noexcept { return state_; }
+    [[nodiscard]] const rtu::RequestAdu& request() const noexcept { return request_; }
+    [[nodiscard]] const rtu::Adu& adu() const noexcept { return adu_; }
+    [[nodiscard]] bool broadcast() const noexcept { return request_.address == rtu::kBroadcastAddress; }
+    [[nodiscard]] unsigned attempts() const noexcept { return attempts_; }
+    [[nodiscard]] const std::optional<Result>& result() const noexcept { return result_; }
+
+    // The request was written: an attempt begins.
+    void written(rtu::Instant now);
+    // The request has left the wire.
+    void sent(rtu::Instant tx_end);
+    // A complete frame while awaiting the reply.
+    Verdict on_frame(const rtu::Frame& frame);
+    // A frame the framer discarded (CRC, gap, parity) while awaiting the reply: the reply was
+    // spoiled, so the attempt failed (retried once the line is silent).
+    void on_bad_frame(rtu::Instant now);
+    // The echo of the request did not match what was sent.
+    void on_echo_mismatch(rtu::Instant now);
+    // The line went down: no more attempts.
+    void abort(rtu::Instant now);
+    // Time passed; handles the response timeout and the broadcast turnaround.
+    void on_time(rtu::Instant now);
+    // When on_time() must next be called, if a timer runs.
+    [[nodiscard]] std::optional<rtu::Instant> deadline() const noexcept;
+
+private:
+    void attempt_failed(Outcome why, rtu::Instant now);
+    void finish(Outcome outcome, rtu::Instant now);
+
+    TransactionOptions options_;
+    rtu::RequestAdu request_;
+    rtu::Adu adu_;
+    State state_ = State::ReadyToSend;
+    unsigned attempts_ = 0;
+    rtu::Instant tx_end_{};
+    std::optional<rtu::Instant> deadline_;
+    std::optional<Result> result_;
+};
+
+}  // namespace drivebus::master

@@ -1,0 +1,352 @@
+// The master on a virtual line against simulated drives: polling, the t3.5 rule, the
+// indirect block, every simulator fault, absent drives, clients, broadcasts, keep-alive.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "atv21.hpp"
+#include "fixtures.hpp"
+#include "sim_fixture.hpp"
+#include "virtual_line.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+using master::Health;
+
+const rtu::Instant kStart{std::chrono::seconds(100)};
+
+class EngineTest : public ::testing::Test {
+protected:
+    std::shared_ptr<const Profile> atv21 = load("atv21");
+    std::shared_ptr<const Profile> atv58 = load("atv58");
+    config::BusConfig config = bus();
+    rtu::CharacterTiming timing = rtu::character_timing(config.format).value();
+    std::vector<master::DriveSnapshot> snapshots;
+    std::vector<std::pair<std::uint64_t, master::Result>> client_results;
+    std::unique_ptr<master::BusEngine> engine;
+    sim::Bus drives{{timing, 1ms, true, 3}};
+    std::unique_ptr<VirtualLine> line;
+
+    void add_pump(bool indirect = false) {
+        auto d = drive("pump", 1, atv21);
+        if (indirect) {
+            d.polls.push_back(poll(*atv21, {"FD00", "FD01", "FE03", "FE05", "FC91"}, 100ms, true));
+        } else {
+            d.polls.push_back(poll(*atv21, {"FD00", "FD01"}, 100ms));
+        }
+        d.keep_alive = 1s;
+        config.drives.push_back(d);
+        drives.add(sim::make_drive(1, atv21));
+    }
+    void add_fan() {
+        auto d = drive("fan", 2, atv58);
+        d.polls.push_back(
+            poll(*atv58, {"W450", "W451", "W452", "W453", "W454", "W455", "W456", "W457", "W458", "W459"}, 200ms));
+        config.drives.push_back(d);
+        drives.add(sim::make_drive(2, atv58));
+    }
+    void start() {
+        master::EngineCallbacks callbacks;
+        callbacks.snapshot = [this](const master::DriveSnapshot& s) { snapshots.push_back(s); };
+        callbacks.client_result = [this](std::uint64_t id, const master::Result& r) {
+            client_results.emplace_back(id, r);
+        };
+        engine = std::make_unique<master::BusEngine>(config, timing, callbacks, kStart);
+        engine->line_up(kStart);
+        line = std::make_unique<VirtualLine>(*engine, drives, timing, kStart);
+    }
+    // The latest snapshot of a drive (throws, failing the test, when there is none).
+    [[nodiscard]] const master::DriveSnapshot& last(const std::string& name) const {
+        for (auto it = snapshots.rbegin(); it != snapshots.rend(); ++it) {
+            if (it->name == name) {
+                return *it;
+            }
+        }
+        throw std::runtime_error("no snapshot of " + name);
+    }
+    [[nodiscard]] std::size_t transmissions_to(std::uint8_t address, rtu::Instant from, rtu::Instant to) const {
+        std::size_t n = 0;
+        for (const auto& t : line->transmissions()) {
+            n += (t.adu[0] == address && t.start >= from && t.start < to) ? 1U : 0U;
+        }
+        return n;
+    }
+    void expect_silences_kept() const {
+        for (const auto& t : line->transmissions()) {
+            ASSERT_GE(t.start - t.prior_activity, timing.t3_5) << "a request started too early";
+        }
+    }
+};
+
+TEST_F(EngineTest, PollsBothDrivesAndReturnsTheirValues) {
+    add_pump();
+    add_fan();
+    ASSERT_TRUE(drives.drive(2)->poke("W453", 1234).has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W459", 65535).has_value());
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0).has_value());
+    start();
+    line->run_for(1s);
+    const auto& fan = last("fan");
+    EXPECT_EQ(fan.health, Health::Online);
+    EXPECT_EQ(fan.registers.at(453).value, 1234);
+    EXPECT_EQ(fan.registers.at(459).value, 65535);
+    EXPECT_TRUE(fan.registers.at(459).valid);
+    const auto& pump = last("pump");
+    EXPECT_TRUE(pump.registers.at(0xFD01).valid);
+    EXPECT_EQ(pump.registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
+    // 100 ms and 200 ms periods over one second.
+    EXPECT_GE(std::ranges::count_if(snapshots, [](const auto& s) { return s.name == "pump"; }), 9);
+    EXPECT_GE(std::ranges::count_if(snapshots, [](const auto& s) { return s.name == "fan"; }), 4);
+    expect_silences_kept();
+    EXPECT_EQ(engine->status().counters.timeouts, 0U);
+}
+
+TEST_F(EngineTest, KeepsTheSilenceAndNoMoreWhenTheLineIsBusy) {
+    add_fan();
+    config.drives.back().polls.back().period = 1ms;  // always due: the line is saturated
+    start();
+    line->run_for(500ms);
+    ASSERT_GT(line->transmissions().size(), 10U);
+    expect_silences_kept();
+    // On a virtual line the engine starts each request exactly at the earliest allowed moment
+    // (the first one has no line activity before it).
+    const auto& sent = line->transmissions();
+    for (std::size_t i = 1; i < sent.size(); ++i) {
+        EXPECT_EQ(sent[i].start, sent[i].free_at) << i;
+        EXPECT_EQ(sent[i].start, sent[i].prior_activity + timing.t3_5) << i;
+    }
+}
+
+TEST_F(EngineTest, IndirectBlockIsSetUpThenReadInOneTransaction) {
+    add_pump(true);
+    start();
+    line->run_for(500ms);
+    const auto& sent = line->transmissions();
+    ASSERT_GE(sent.size(), 6U);
+    // F875-F879 are written first with the choices for FD00, FD01, FE03, FE05, FC91.
+    const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
+    for (std::size_t i = 0; i < 5; ++i) {
+        EXPECT_EQ(sent[i].adu[1], 0x06);
+        EXPECT_EQ(drives.drive(1)->peek("F87" + std::to_string(5 + i)).value(), choices[i]);
+    }
+    EXPECT_EQ(sent[5].adu[1], 0x03);
+    EXPECT_EQ(sent[5].adu[2], 0x18);
+    EXPECT_EQ(sent[5].adu[3], 0x75);
+    const auto& pump = last("pump");
+    EXPECT_EQ(pump.registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
+    EXPECT_TRUE(pump.registers.at(0xFC91).valid);
+}
+
+TEST_F(EngineTest, CorruptedRepliesAreNeverAccepted) {
+    add_fan();
+    ASSERT_TRUE(drives.drive(2)->poke("W450", 111).has_value());
+    start();
+    line->run_for(300ms);
+    ASSERT_EQ(last("fan").registers.at(450).value, 111);
+    ASSERT_TRUE(drives.faults().apply(2, "crc=1").has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W450", 222).has_value());
+    snapshots.clear();
+    line->run_for(1s);
+    for (const auto& s : snapshots) {
+        EXPECT_NE(s.registers.at(450).value, 222) << "a value from a corrupted reply was accepted";
+    }
+    EXPECT_GT(engine->status().counters.crc_errors, 0U);
+    EXPECT_GT(engine->status().counters.retries, 0U);
+    drives.faults().clear(std::nullopt);
+    line->run_for(2s);
+    EXPECT_EQ(last("fan").registers.at(450).value, 222);
+    expect_silences_kept();
+}
+
+TEST_F(EngineTest, AbsentDriveDoesNotDelayTheOther) {
+    add_pump();
+    add_fan();
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0).has_value());
+    start();
+    line->run_for(1s);
+    const auto before = transmissions_to(2, kStart, kStart + 1s);
+    ASSERT_TRUE(drives.faults().apply(1, "drop=1").has_value());
+    line->run_for(5s);
+    EXPECT_EQ(last("pump").health, Health::Absent);
+    EXPECT_FALSE(last("pump").registers.at(0xFD00).valid);
+    EXPECT_EQ(last("pump").counters.absent_transitions, 1U);
+    // The fan is polled at its rate: one cycle (one transaction) per 200 ms.
+    const auto during = transmissions_to(2, kStart + 2s, kStart + 6s);
+    EXPECT_GE(during, 4 * before - 2);
+    // Probes back off: 1 s, 2 s, 4 s ...
+    const auto probes = transmissions_to(1, kStart + 2s, kStart + 6s);
+    EXPECT_LE(probes, 3U);
+    drives.faults().clear(std::nullopt);
+    line->run_for(10s);
+    EXPECT_EQ(last("pump").health, Health::Online);
+    expect_silences_kept();
+}
+
+TEST_F(EngineTest, ExceptionsAreResultsNotValues) {
+    add_fan();
+    ASSERT_TRUE(drives.faults().apply(2, "exception=4").has_value());
+    start();
+    line->run_for(500ms);
+    EXPECT_GT(engine->status().counters.exceptions[4], 0U);
+    for (const auto& s : snapshots) {
+        EXPECT_FALSE(s.registers.at(450).valid);
+    }
+    EXPECT_EQ(engine->status().counters.retries, 0U);  // an exception is an answer
+}
+
+TEST_F(EngineTest, NoiseAndGapsAreSurvived) {
+    add_fan();
+    ASSERT_TRUE(drives.drive(2)->poke("W451", 51).has_value());
+    // Noise then a 2-character silence: the reply is still found.
+    ASSERT_TRUE(drives.faults().apply(2, "noise=2:2").has_value());
+    start();
+    line->run_for(500ms);
+    EXPECT_EQ(last("fan").registers.at(451).value, 51);
+    // A gap inside every reply: no value accepted, every attempt counted.
+    ASSERT_TRUE(drives.faults().apply(2, "noise=0").has_value());
+    ASSERT_TRUE(drives.faults().apply(2, "gap=5:2.5").has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W451", 52).has_value());
+    snapshots.clear();
+    line->run_for(500ms);
+    EXPECT_GT(engine->status().counters.gap_errors, 0U);
+    for (const auto& s : snapshots) {
+        EXPECT_NE(s.registers.at(451).value, 52);
+    }
+    expect_silences_kept();
+}
+
+TEST_F(EngineTest, LateRepliesAreNotMistakenForTheNextOne) {
+    add_pump();
+    add_fan();
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0).has_value());
+    // Drive 1 answers after 60 ms, past the 50 ms response timeout: its replies arrive late.
+    ASSERT_TRUE(drives.faults().apply(1, "late=60ms").has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W450", 450).has_value());
+    start();
+    line->run_for(2s);
+    EXPECT_GT(engine->status().counters.timeouts, 0U);
+    for (const auto& s : snapshots) {
+        if (s.name == "fan") {
+            for (const auto& [address, v] : s.registers) {
+                if (v.valid && address == 450) {
+                    EXPECT_EQ(v.value, 450);
+                }
+            }
+        }
+    }
+    EXPECT_EQ(last("fan").health, Health::Online);
+    expect_silences_kept();
+}
+
+TEST_F(EngineTest, EchoIsConsumedAndChecked) {
+    add_fan();
+    config.echo = config::EchoMode::On;
+    ASSERT_TRUE(drives.faults().apply(0, "echo=1").has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W452", 4242).has_value());
+    start();
+    line->run_for(500ms);
+    EXPECT_EQ(last("fan").registers.at(452).value, 4242);
+    EXPECT_EQ(engine->status().counters.echo_mismatches, 0U);
+    EXPECT_EQ(engine->status().counters.foreign, 0U);
+}
+
+TEST_F(EngineTest, EchoAutoDetection) {
+    add_fan();
+    config.echo = config::EchoMode::Auto;
+    ASSERT_TRUE(drives.faults().apply(0, "echo=1").has_value());
+    start();
+    line->run_for(300ms);
+    EXPECT_EQ(engine->echo(), master::EchoSetting::On);
+    EXPECT_TRUE(last("fan").registers.at(450).valid);
+}
+
+TEST_F(EngineTest, EchoAutoDetectsNoEcho) {
+    add_fan();
+    config.echo = config::EchoMode::Auto;
+    start();
+    line->run_for(300ms);
+    EXPECT_EQ(engine->echo(), master::EchoSetting::Off);
+    EXPECT_TRUE(last("fan").registers.at(450).valid);
+}
+
+TEST_F(EngineTest, ClientWritesGoFirstAndBroadcastsWaitTheTurnaround) {
+    add_pump();
+    add_fan();
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0).has_value());
+    config.broadcast_turnaround = 20ms;
+    start();
+    line->run_for(50ms);
+    ASSERT_TRUE(engine->submit({7, 1, {2, rtu::ReadHoldingRegisters{450, 1}}}).has_value());
+    ASSERT_TRUE(engine->submit({7, 2, {1, rtu::WriteSingleRegister{0xFA01, 3000}}}).has_value());
+    ASSERT_TRUE(engine->submit({8, 3, {0, rtu::WriteSingleRegister{401, 99}}}).has_value());
+    line->run_for(500ms);
+    ASSERT_EQ(client_results.size(), 3U);
+    // Writes first, round-robin between clients: 7's write, 8's broadcast, then 7's read.
+    EXPECT_EQ(client_results[0].first, 2U);
+    EXPECT_EQ(client_results[1].first, 3U);
+    EXPECT_EQ(client_results[2].first, 1U);
+    EXPECT_EQ(drives.drive(1)->peek("FA01").value(), 3000);
+    EXPECT_EQ(drives.drive(2)->peek("W401").value(), 99);
+    // After the broadcast, the next request waited the turnaround.
+    const auto& sent = line->transmissions();
+    for (std::size_t i = 0; i + 1 < sent.size(); ++i) {
+        if (sent[i].adu[0] == 0) {
+            const auto tx_end = sent[i].start + timing.character * static_cast<std::int64_t>(sent[i].adu.size());
+            EXPECT_GE(sent[i + 1].start - tx_end, 20ms);
+        }
+    }
+}
+
+TEST_F(EngineTest, QueueLimitRejects) {
+    add_fan();
+    config.queue_limit = 2;
+    start();
+    EXPECT_TRUE(engine->submit({1, 1, {2, rtu::ReadHoldingRegisters{450, 1}}}).has_value());
+    EXPECT_TRUE(engine->submit({1, 2, {2, rtu::ReadHoldingRegisters{450, 1}}}).has_value());
+    EXPECT_EQ(engine->submit({1, 3, {2, rtu::ReadHoldingRegisters{450, 1}}}).error(), master::SubmitError::QueueFull);
+    EXPECT_EQ(engine->submit({1, 4, {9, rtu::ReadHoldingRegisters{450, 1}}}).error(),
+              master::SubmitError::UnknownDrive);
+    EXPECT_EQ(engine->status().counters.queue_rejections, 1U);
+}
+
+TEST_F(EngineTest, KeepAliveHoldsOffTheModbusTimeout) {
+    // A drive with nothing to poll still gets a request every second (F803 is 3 s).
+    auto d = drive("idle", 1, atv21);
+    d.keep_alive = 1s;
+    config.drives.push_back(d);
+    drives.add(sim::make_drive(1, atv21));
+    start();
+    line->run_for(10s);
+    EXPECT_EQ(drives.drive(1)->peek("FC90").value(), 0);
+    EXPECT_GE(line->transmissions().size(), 9U);
+}
+
+TEST_F(EngineTest, WithoutKeepAliveTheDriveTrips) {
+    auto d = drive("idle", 1, atv21);
+    d.polls.push_back(poll(*atv21, {"FD00"}, 5s));
+    config.drives.push_back(d);
+    drives.add(sim::make_drive(1, atv21));
+    start();
+    line->run_for(12s);
+    EXPECT_EQ(drives.drive(1)->peek("FC90").value(), sim::Atv21Drive::kFaultModbusTimeout);
+}
+
+TEST_F(EngineTest, LineDownAndUp) {
+    add_fan();
+    start();
+    line->run_for(300ms);
+    engine->line_down(line->now());
+    EXPECT_FALSE(engine->up());
+    const auto sent = line->transmissions().size();
+    line->run_for(1s);
+    EXPECT_EQ(line->transmissions().size(), sent);
+    engine->line_up(line->now());
+    line->run_for(500ms);
+    EXPECT_GT(line->transmissions().size(), sent);
+    EXPECT_EQ(engine->status().counters.line_down, 1U);
+}
+
+}  // namespace
+}  // namespace drivebus::test

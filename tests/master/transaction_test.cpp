@@ -1,0 +1,118 @@
+// The transaction state machine on a fake clock.
+#include "master/transaction.hpp"
+
+#include <gtest/gtest.h>
+
+#include "rtu/codec.hpp"
+
+namespace drivebus::master {
+namespace {
+
+using namespace std::chrono_literals;
+
+const rtu::Instant t0{std::chrono::seconds(10)};
+const rtu::RequestAdu kRead{1, rtu::ReadHoldingRegisters{0xFD00, 1}};
+
+Transaction make(unsigned retries = 2, rtu::RequestAdu request = kRead) {
+    const auto adu = rtu::encode_request(request).value();
+    return Transaction({50ms, retries, 10ms}, request, adu);
+}
+
+rtu::Frame frame_of(const rtu::ResponseAdu& reply, rtu::Instant last) {
+    rtu::Frame f;
+    f.adu = rtu::encode_response(reply).value();
+    f.last = last;
+    return f;
+}
+
+TEST(Transaction, ReplyCompletesIt) {
+    auto t = make();
+    EXPECT_EQ(t.state(), Transaction::State::ReadyToSend);
+    t.written(t0);
+    EXPECT_EQ(t.state(), Transaction::State::Sending);
+    EXPECT_FALSE(t.deadline().has_value());  // the timeout starts when the request is off the wire
+    t.sent(t0 + 4ms);
+    EXPECT_EQ(t.deadline(), t0 + 54ms);
+    const auto verdict = t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{6000}}}, t0 + 10ms));
+    EXPECT_EQ(verdict, Transaction::Verdict::Reply);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Ok);
+    EXPECT_EQ(t.result()->latency, 6ms);
+    EXPECT_EQ(t.result()->attempts, 1U);
+}
+
+TEST(Transaction, TimeoutsRetryThenGiveUp) {
+    auto t = make(2);
+    for (int attempt = 1; attempt <= 3; ++attempt) {
+        ASSERT_EQ(t.state(), Transaction::State::ReadyToSend) << attempt;
+        const rtu::Instant start = t0 + std::chrono::milliseconds(100 * attempt);
+        t.written(start);
+        t.sent(start + 4ms);
+        t.on_time(start + 53ms);
+        EXPECT_NE(t.state(), Transaction::State::ReadyToSend);  // not yet
+        t.on_time(start + 54ms);
+    }
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Timeout);
+    EXPECT_EQ(t.result()->attempts, 3U);
+}
+
+TEST(Transaction, ForeignFramesAreIgnoredMalformedOnesFailTheAttempt) {
+    auto t = make(0);
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    EXPECT_EQ(t.on_frame(frame_of({2, rtu::ReadHoldingRegistersResponse{{1}}}, t0 + 8ms)),
+              Transaction::Verdict::Foreign);
+    EXPECT_EQ(t.state(), Transaction::State::AwaitingReply);
+    // From slave 1 but two words for a one-word read.
+    EXPECT_EQ(t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{1, 2}}}, t0 + 9ms)),
+              Transaction::Verdict::Malformed);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::BadFrame);
+}
+
+TEST(Transaction, ExceptionIsAnAnswer) {
+    auto t = make();
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    t.on_frame(frame_of({1, rtu::ExceptionResponse{3, rtu::ExceptionCode::IllegalDataValue}}, t0 + 9ms));
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Exception);
+    EXPECT_EQ(t.result()->exception(), rtu::ExceptionCode::IllegalDataValue);
+}
+
+TEST(Transaction, BadFramesAndEchoMismatchesRetry) {
+    auto t = make(1);
+    t.written(t0);
+    t.on_echo_mismatch(t0 + 1ms);
+    EXPECT_EQ(t.state(), Transaction::State::ReadyToSend);
+    t.written(t0 + 10ms);
+    t.sent(t0 + 14ms);
+    t.on_bad_frame(t0 + 20ms);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::BadFrame);
+    EXPECT_EQ(t.result()->attempts, 2U);
+}
+
+TEST(Transaction, BroadcastWaitsTheTurnaroundOnly) {
+    auto t = make(2, {0, rtu::WriteSingleRegister{0xFA01, 1}});
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    EXPECT_EQ(t.state(), Transaction::State::BroadcastWait);
+    t.on_time(t0 + 13ms);
+    EXPECT_EQ(t.state(), Transaction::State::BroadcastWait);
+    t.on_time(t0 + 14ms);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Ok);
+    EXPECT_FALSE(t.result()->response.has_value());
+}
+
+TEST(Transaction, AbortReportsBusDown) {
+    auto t = make();
+    t.written(t0);
+    t.abort(t0 + 1ms);
+    EXPECT_EQ(t.result()->outcome, Outcome::BusDown);
+}
+
+}  // namespace
+}  // namespace drivebus::master
