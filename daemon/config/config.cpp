@@ -1,0 +1,157 @@
+// parse_config() and load_config(): the TOML text, [realtime], every [[bus]], and the checks
+// that span buses. The first error is the one reported.
+#include "config/config.hpp"
+
+#include <algorithm>
+#include <array>
+#include <fstream>
+#include <map>
+#include <system_error>
+
+#include "read.hpp"
+
+namespace drivebus::config {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::uintmax_t kMaxFileSize = 1U << 20;  // a configuration is a few KiB
+
+constexpr std::array<std::string_view, 3> kRealtimeModes = {"off", "best-effort", "required"};
+
+std::unexpected<ConfigError> fail(std::string message) {
+    return std::unexpected(ConfigError{std::move(message)});
+}
+
+ConfigError syntax_error(std::string_view source, const toml::parse_error& e) {
+    std::string line = std::string(source) + ": line " + std::to_string(e.source().begin.line) + ", column " +
+                       std::to_string(e.source().begin.column) + ": ";
+    for (const char c : e.description()) {
+        line += (c == '\n' || c == '\r') ? ' ' : c;
+    }
+    return ConfigError{std::move(line)};
+}
+
+void read_buses(detail::Section& root, detail::Errors& errors, const LoadOptions& options, Config& config) {
+    const auto tables = root.tables("bus");
+    if (tables.empty() && !errors.any()) {
+        errors.add("", "no [[bus]]: drivebusd needs at least one bus");
+        return;
+    }
+    detail::ProfileCache profiles(options);
+    detail::DriveNames drive_names;
+    std::map<std::string, std::string> names;  // bus name -> itself, for the message
+    std::map<fs::path, std::string> devices;   // device -> bus name
+    for (std::size_t i = 0; i < tables.size(); ++i) {
+        auto bus = detail::read_bus(*tables[i], i, errors, profiles, drive_names);
+        const auto where = bus.name.empty() ? detail::entry_name("bus", i) : "bus " + detail::in_quotes(bus.name);
+        if (!bus.name.empty() && !names.emplace(bus.name, bus.name).second) {
+            errors.add(where, "name " + detail::in_quotes(bus.name) + " is already another bus");
+        }
+        if (!bus.device.empty()) {
+            if (const auto [it, fresh] = devices.emplace(bus.device, bus.name); !fresh) {
+                errors.add(where, "device " + detail::in_quotes(bus.device.string()) + " is already bus " +
+                                      detail::in_quotes(it->second));
+            }
+        }
+        config.buses.push_back(std::move(bus));
+    }
+}
+
+}  // namespace
+
+namespace detail {
+
+RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
+    Section s(table, "realtime", errors);
+    s.allow_only({"mode", "priority", "cpus", "lock_memory"});
+    RealtimeConfig realtime;
+    if (const auto mode = choice(s, "mode", kRealtimeModes)) {
+        static constexpr std::array<RealtimeMode, 3> kValues = {RealtimeMode::Off, RealtimeMode::BestEffort,
+                                                                RealtimeMode::Required};
+        realtime.mode = kValues.at(*mode);
+    }
+    realtime.priority = static_cast<int>(s.integer("priority", 1, 99).value_or(realtime.priority));
+    // CPU_SETSIZE is 1024.
+    const auto cpus = s.integers("cpus", 0, 1023).value_or(std::vector<std::int64_t>{});
+    for (std::size_t i = 0; i < cpus.size(); ++i) {
+        const auto cpu = static_cast<int>(cpus[i]);
+        if (std::ranges::find(realtime.cpus, cpu) != realtime.cpus.end()) {
+            s.fail("cpus[" + std::to_string(i) + "] " + std::to_string(cpu) + " is listed twice");
+        }
+        realtime.cpus.push_back(cpu);
+    }
+    realtime.lock_memory = s.boolean("lock_memory").value_or(realtime.lock_memory);
+    return realtime;
+}
+
+}  // namespace detail
+
+std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
+                                                const LoadOptions& options) {
+    toml::table root;
+    try {
+        root = toml::parse(text, std::string(source));
+    } catch (const toml::parse_error& e) {
+        return std::unexpected(syntax_error(source, e));
+    }
+    detail::Errors errors(source);
+    detail::Section s(root, "", errors);
+    s.allow_only({"realtime", "bus"});
+    Config config;
+    config.source = fs::path(source);
+    if (const auto* realtime = s.table("realtime")) {
+        config.realtime = detail::read_realtime(*realtime, errors);
+    }
+    read_buses(s, errors, options, config);
+    if (errors.any()) {
+        return std::unexpected(ConfigError{errors.error().message});
+    }
+    return config;
+}
+
+std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadOptions& options) {
+    const auto name = file.string();
+    std::error_code ec;
+    const auto status = fs::status(file, ec);
+    if (ec) {
+        return fail(name + ": " + ec.message());
+    }
+    if (!fs::is_regular_file(status)) {
+        return fail(name + ": not a regular file");
+    }
+    const auto size = fs::file_size(file, ec);
+    if (ec) {
+        return fail(name + ": " + ec.message());
+    }
+    if (size > kMaxFileSize) {
+        return fail(name + ": " + std::to_string(size) + " bytes is too large for a configuration");
+    }
+    std::string text(static_cast<std::size_t>(size), '\0');
+    std::ifstream in(file, std::ios::binary);
+    if (!in.read(text.data(), static_cast<std::streamsize>(text.size()))) {
+        return fail(name + ": cannot be read");
+    }
+    return parse_config(text, name, options);
+}
+
+std::string_view to_string(DirectionMode mode) noexcept {
+    switch (mode) {
+    case DirectionMode::Kernel: return "kernel";
+    case DirectionMode::Gpio: return "gpio";
+    case DirectionMode::Rts: return "rts";
+    case DirectionMode::None: return "none";
+    }
+    return "?";
+}
+
+std::string_view to_string(EchoMode mode) noexcept {
+    switch (mode) {
+    case EchoMode::Off: return "off";
+    case EchoMode::On: return "on";
+    case EchoMode::Auto: return "auto";
+    }
+    return "?";
+}
+
+}  // namespace drivebus::config
