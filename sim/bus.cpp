@@ -1,6 +1,8 @@
 #include "bus.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <string>
 
 #include "rtu/codec.hpp"
 
@@ -40,6 +42,33 @@ void Bus::advance(rtu::Instant now) {
     for (auto& [address, drive] : drives_) {
         drive->advance(now);
     }
+}
+
+void Bus::record_silence(rtu::Duration silence) {
+    if (silence < options_.timing.t3_5) {
+        ++short_silences_;
+    }
+    constexpr std::size_t kKept = 1'000'000;
+    if (silences_us_.size() < kKept) {
+        silences_us_.push_back(std::chrono::duration<double, std::micro>(silence).count());
+    }
+}
+
+std::string Bus::silence_summary() const {
+    std::vector<double> s = silences_us_;
+    std::sort(s.begin(), s.end());
+    auto at = [&](double q) {
+        if (s.empty()) {
+            return 0.0;
+        }
+        const auto i = static_cast<std::size_t>(q * static_cast<double>(s.size() - 1) + 0.5);
+        return s[i];
+    };
+    const auto fmt = [](double v) { return std::to_string(static_cast<long long>(std::llround(v))); };
+    return "count=" + std::to_string(s.size()) + " short=" + std::to_string(short_silences_) +
+           " t35_us=" + fmt(std::chrono::duration<double, std::micro>(options_.timing.t3_5).count()) +
+           " min_us=" + fmt(s.empty() ? 0.0 : s.front()) + " p50_us=" + fmt(at(0.5)) + " p99_us=" + fmt(at(0.99)) +
+           " max_us=" + fmt(s.empty() ? 0.0 : s.back());
 }
 
 void Bus::on_discarded(const rtu::DiscardedFrame& /*discarded*/) {

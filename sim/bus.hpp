@@ -49,6 +49,11 @@ public:
     [[nodiscard]] TxPlan on_received(std::span<const std::uint8_t> bytes, rtu::Instant last_char_end);
     // Lets every drive's time run to `now`.
     void advance(rtu::Instant now);
+    // A request began `silence` after the last character this line sent: the master kept
+    // that much silence. Recorded for the `silences` command.
+    void record_silence(rtu::Duration silence);
+    // "count=N short=M min_us=... p50_us=... p99_us=... max_us=..." (short: below t3.5).
+    [[nodiscard]] std::string silence_summary() const;
 
     [[nodiscard]] FaultTable& faults() noexcept { return faults_; }
     [[nodiscard]] const FaultCounters& counters() const noexcept { return counters_; }
@@ -63,6 +68,8 @@ private:
     FaultTable faults_;
     FaultCounters counters_;
     std::mt19937 rng_;
+    std::vector<double> silences_us_;
+    std::uint64_t short_silences_ = 0;
 };
 
 }  // namespace drivebus::sim

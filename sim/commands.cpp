@@ -8,7 +8,7 @@ namespace drivebus::sim {
 namespace {
 
 constexpr std::string_view kHelp =
-    "ok commands: drives | stats | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
+    "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
     "get ADDR REG | set ADDR REG VALUE | option ADDR key=value";
 
 std::vector<std::string_view> words(std::string_view line) {
@@ -78,6 +78,9 @@ std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
     const std::string_view verb = w[0];
     if (verb == "stats" && w.size() == 1) {
         return "ok " + bus.counters().to_string();
+    }
+    if (verb == "silences" && w.size() == 1) {
+        return "ok " + bus.silence_summary();
     }
     if (verb == "faults" && w.size() == 1) {
         return "ok " + bus.faults().to_string();

@@ -271,7 +271,12 @@ int run(const Options& o) {
                 return;
             }
             const auto bytes = std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n));
-            const rtu::Instant t = arrival.place(bytes.size(), sys::now());
+            const rtu::Instant read_time = sys::now();
+            // A new frame begins: how long after our last character did the master start it?
+            if (!framer.frame_open() && writer.last_written()) {
+                bus.record_silence(read_time - *writer.last_written());
+            }
+            const rtu::Instant t = arrival.place(bytes.size(), read_time);
             writer.enqueue(bus.on_received(bytes, t));
             framer.feed(bytes, t);
         }

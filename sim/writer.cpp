@@ -40,6 +40,7 @@ void PacedWriter::service() {
         const std::size_t sent = wrote ? static_cast<std::size_t>(*wrote) : 0;
         written_ += sent;
         lost_ += n - sent;
+        last_written_ = sys::now();
     }
     timer_.disarm();
 }

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <optional>
 
 #include "bus.hpp"
 #include "sys/event_loop.hpp"
@@ -23,6 +24,8 @@ public:
     [[nodiscard]] std::uint64_t written() const noexcept { return written_; }
     [[nodiscard]] std::uint64_t lost() const noexcept { return lost_; }
     [[nodiscard]] bool idle() const noexcept { return queue_.empty(); }
+    // When the last byte was written, if any.
+    [[nodiscard]] std::optional<rtu::Instant> last_written() const noexcept { return last_written_; }
 
 private:
     int fd_;
@@ -31,6 +34,7 @@ private:
     std::deque<TxByte> queue_;
     std::uint64_t written_ = 0;
     std::uint64_t lost_ = 0;  // bytes the other end did not take (its buffer was full)
+    std::optional<rtu::Instant> last_written_;
 };
 
 }  // namespace drivebus::sim

@@ -86,8 +86,12 @@ std::string slurp(const fs::path& file) {
 
 }  // namespace
 
-SimProcess::SimProcess(std::vector<std::string> args)
-    : dir_(fresh_dir()), link_(dir_ / "tty"), control_(dir_ / "control"), log_(dir_ / "sim.log") {
+SimProcess::SimProcess(std::vector<std::string> args, std::optional<fs::path> dir)
+    : dir_(dir ? *dir : fresh_dir()),
+      link_(dir_ / "tty"),
+      control_(dir_ / "control"),
+      log_(dir_ / "sim.log"),
+      owns_dir_(!dir) {
     args.insert(args.begin(), {"--link", link_.string(), "--control", control_.string()});
     pid_ = spawn(args, log_);
     // The simulator prints its one-line banner once the line and the control socket are up.
@@ -105,8 +109,10 @@ SimProcess::SimProcess(std::vector<std::string> args)
 
 SimProcess::~SimProcess() {
     stop();
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
+    if (owns_dir_) {
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
 }
 
 int SimProcess::stop() {

@@ -22,9 +22,9 @@ bool wait_until(const std::function<bool()>& condition, std::chrono::millisecond
 
 class SimProcess {
 public:
-    // Starts drivebus-sim with a pty link and a control socket in a fresh directory, plus
-    // `args`, and waits until both exist.
-    explicit SimProcess(std::vector<std::string> args);
+    // Starts drivebus-sim with a pty link and a control socket in a fresh directory (or in
+    // `dir`, to stand in for a device that comes back), plus `args`, and waits until both exist.
+    explicit SimProcess(std::vector<std::string> args, std::optional<std::filesystem::path> dir = std::nullopt);
     ~SimProcess();
     SimProcess(const SimProcess&) = delete;
     SimProcess& operator=(const SimProcess&) = delete;
@@ -44,6 +44,7 @@ private:
     std::filesystem::path control_;
     std::filesystem::path log_;
     int pid_ = -1;
+    bool owns_dir_ = true;
 };
 
 // Runs drivebus-sim to completion with `args` (for argument errors); returns its exit status
