@@ -1,0 +1,341 @@
+#include "bus/bus_loop.hpp"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <array>
+#include <deque>
+#include <future>
+
+#include "log/log.hpp"
+#include "rt/realtime.hpp"
+#include "serial/direction.hpp"
+#include "serial/port.hpp"
+#include "serial/termios.hpp"
+#include "serial/tx_tracker.hpp"
+#include "sys/event_loop.hpp"
+
+namespace drivebus::bus {
+
+using namespace std::chrono_literals;
+
+class BusLoop::Impl {
+public:
+    Impl(const config::BusConfig& bus, master::EngineCallbacks callbacks, std::atomic<std::uint64_t>& heartbeat)
+        : bus_(bus),
+          timing_(rtu::character_timing(bus.format).value()),
+          engine_(bus, timing_, std::move(callbacks), sys::now()),
+          uart_(serial::kernel_uart_control()),
+          heartbeat_(heartbeat),
+          wake_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
+        loop_.add(wake_.get(), [this] { on_wake(); });
+        loop_.add(timer_.fd(), [this] {
+            timer_.acknowledge();
+            drive();
+        });
+    }
+
+    void run() {
+        try_open();
+        drive();
+        if (auto ran = loop_.run(); !ran) {
+            log::error("bus " + bus_.name + ": event loop: " + ran.error().message());
+        }
+        close_port();
+    }
+
+    void request_stop() {
+        stopping_ = true;
+        poke();
+    }
+
+    std::expected<void, master::SubmitError> submit(master::ClientRequest request) {
+        {
+            const std::lock_guard lock(mutex_);
+            if (inbox_.size() >= bus_.queue_limit) {
+                return std::unexpected(master::SubmitError::QueueFull);
+            }
+            inbox_.push_back(std::move(request));
+        }
+        poke();
+        return {};
+    }
+
+    master::BusStatus status() const {
+        const std::lock_guard lock(mutex_);
+        return status_copy_;
+    }
+
+private:
+    void poke() {
+        const std::uint64_t one = 1;
+        [[maybe_unused]] const auto n = ::write(wake_.get(), &one, sizeof one);
+    }
+
+    void on_wake() {
+        std::uint64_t count = 0;
+        [[maybe_unused]] const auto n = ::read(wake_.get(), &count, sizeof count);
+        if (stopping_) {
+            loop_.stop();
+            return;
+        }
+        std::deque<master::ClientRequest> requests;
+        {
+            const std::lock_guard lock(mutex_);
+            requests.swap(inbox_);
+        }
+        for (auto& r : requests) {
+            (void)engine_.submit(std::move(r));  // rejections are counted by the engine
+        }
+        drive();
+    }
+
+    // ---- the port ----
+
+    void try_open() {
+        serial::PortOptions options{bus_.device, bus_.format, bus_.lock_dir};
+        auto port = serial::Port::open(options);
+        if (!port) {
+            schedule_reopen(port.error().message, port.error().device_gone());
+            return;
+        }
+        auto direction = make_direction(port->fd());
+        if (!direction) {
+            schedule_reopen(direction.error().message, false);
+            return;
+        }
+        port_ = std::move(*port);
+        direction_ = std::move(*direction);
+        tracker_.emplace(timing_, *uart_, port_->fd());
+        for (const auto& note : port_->tuning()) {
+            log::info("bus " + bus_.name + ": " + port_->device().string() + ": " + note);
+        }
+        log::notice("bus " + bus_.name + ": " + port_->device().string() + " open, " + serial::describe(bus_.format) +
+                    ", direction " + std::string(direction_->name()));
+        reopen_delay_ = {};
+        reopen_at_.reset();
+        limiter_.reset("open");
+        loop_.add(port_->fd(), [this] { on_readable(); });
+        engine_.line_up(sys::now());
+    }
+
+    std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_direction(int fd) {
+        switch (bus_.direction) {
+        case config::DirectionMode::Kernel: {
+            auto kernel = serial::make_kernel_direction(fd, bus_.kernel);
+            if (kernel || !bus_.kernel_fallback) {
+                return kernel;
+            }
+            log::warning("bus " + bus_.name + ": " + kernel.error().message + "; falling back to " +
+                         std::string(config::to_string(*bus_.kernel_fallback)));
+            if (*bus_.kernel_fallback == config::DirectionMode::Rts) {
+                return serial::make_rts_direction(fd, *uart_);
+            }
+            return serial::make_no_direction();
+        }
+        case config::DirectionMode::Gpio: return serial::make_gpio_direction(*bus_.gpio);
+        case config::DirectionMode::Rts: return serial::make_rts_direction(fd, *uart_);
+        case config::DirectionMode::None: return serial::make_no_direction();
+        }
+        return serial::make_no_direction();
+    }
+
+    void schedule_reopen(const std::string& why, bool gone) {
+        reopen_delay_ =
+            reopen_delay_.count() == 0 ? rtu::Duration(100ms) : std::min<rtu::Duration>(reopen_delay_ * 2, 5s);
+        reopen_at_ = sys::now() + reopen_delay_;
+        limiter_.write(log::Level::Error, "open",
+                       "bus " + bus_.name + ": " + why + (gone ? "; bus down, retrying" : "; retrying"));
+    }
+
+    void close_port() {
+        if (port_) {
+            loop_.remove(port_->fd());
+            port_.reset();
+        }
+        direction_.reset();
+        tracker_.reset();
+    }
+
+    void lost(const std::string& why) {
+        log::error("bus " + bus_.name + ": " + why + "; bus down");
+        close_port();
+        engine_.line_down(sys::now());
+        schedule_reopen(bus_.device.string() + ": gone", true);
+    }
+
+    void on_readable() {
+        std::array<std::uint8_t, 512> buffer{};
+        while (port_) {
+            auto n = port_->read(buffer);
+            const rtu::Instant t = sys::now();
+            if (!n) {
+                lost(port_->device().string() + ": " + n.error().message());
+                return;
+            }
+            if (*n == 0) {
+                break;
+            }
+            engine_.on_bytes(std::span(buffer.data(), *n), t);
+        }
+        drive();
+    }
+
+    // ---- the engine ----
+
+    void drive() {
+        heartbeat_.fetch_add(1, std::memory_order_relaxed);
+        rtu::Instant now = sys::now();
+        if (!port_) {
+            if (reopen_at_ && now >= *reopen_at_) {
+                try_open();
+            }
+        }
+        engine_.on_time(now);
+        if (port_ && tracker_ && tracker_->busy() && now >= tracker_->next_check()) {
+            if (const auto done = tracker_->check(now)) {
+                if (auto released = direction_->transmit_done(sys::now()); !released) {
+                    lost(released.error().message);
+                    return;
+                }
+                engine_.transmitted(*done);
+                engine_.on_time(now);
+            }
+        }
+        if (port_ && tracker_ && !tracker_->busy()) {
+            transmit(now);
+        }
+        publish_status();
+        arm();
+    }
+
+    void transmit(rtu::Instant now) {
+        const auto adu = engine_.transmission(now);
+        if (!adu) {
+            return;
+        }
+        if (auto enabled = direction_->before_transmit(sys::now()); !enabled) {
+            lost(enabled.error().message);
+            return;
+        }
+        std::size_t done = 0;
+        for (int stalls = 0; done < adu->size();) {
+            auto n = port_->write(adu->bytes().subspan(done));
+            if (!n) {
+                lost(port_->device().string() + ": " + n.error().message());
+                return;
+            }
+            done += *n;
+            if (*n == 0) {
+                // The output buffer is full: wait for room, briefly, rather than spin.
+                pollfd p{port_->fd(), POLLOUT, 0};
+                if (::poll(&p, 1, 10) <= 0 && ++stalls > 100) {
+                    lost(port_->device().string() + ": output stalled for a second");
+                    return;
+                }
+            }
+        }
+        const rtu::Instant written = sys::now();
+        engine_.written(written);
+        tracker_->started(written, adu->size());
+    }
+
+    void arm() {
+        std::optional<rtu::Instant> wake = engine_.next_wakeup();
+        auto consider = [&](std::optional<rtu::Instant> t) {
+            if (t && (!wake || *t < *wake)) {
+                wake = t;
+            }
+        };
+        if (tracker_ && tracker_->busy()) {
+            consider(tracker_->next_check());
+        }
+        if (!port_) {
+            consider(reopen_at_);
+        }
+        if (wake) {
+            timer_.arm(*wake);
+        } else {
+            timer_.disarm();
+        }
+    }
+
+    void publish_status() {
+        const std::lock_guard lock(mutex_);
+        status_copy_ = engine_.status();
+    }
+
+    const config::BusConfig& bus_;
+    rtu::CharacterTiming timing_;
+    master::BusEngine engine_;
+    std::unique_ptr<serial::UartControl> uart_;
+    std::atomic<std::uint64_t>& heartbeat_;
+    sys::EventLoop loop_;
+    sys::Timer timer_;
+    sys::UniqueFd wake_;
+    std::optional<serial::Port> port_;
+    std::unique_ptr<serial::Direction> direction_;
+    std::optional<serial::TransmitTracker> tracker_;
+    rtu::Duration reopen_delay_{};
+    std::optional<rtu::Instant> reopen_at_;
+    log::RateLimited limiter_{std::chrono::seconds(60)};
+    std::atomic<bool> stopping_{false};
+
+    mutable std::mutex mutex_;
+    std::deque<master::ClientRequest> inbox_;
+    master::BusStatus status_copy_;
+};
+
+BusLoop::BusLoop(const config::BusConfig& bus, master::EngineCallbacks callbacks, LoopOptions options)
+    : bus_(bus), callbacks_(std::move(callbacks)), options_(std::move(options)) {}
+
+BusLoop::~BusLoop() {
+    stop();
+}
+
+std::expected<void, std::string> BusLoop::start() {
+    impl_ = std::make_unique<Impl>(bus_, callbacks_, heartbeat_);
+    std::promise<std::expected<void, std::string>> started;
+    auto ready = started.get_future();
+    thread_ = std::thread([this, &started] {
+        if (options_.realtime && options_.realtime->mode != config::RealtimeMode::Off) {
+            auto rt = rt::make_realtime(options_.realtime->priority, options_.realtime->cpus);
+            if (!rt) {
+                if (options_.realtime->mode == config::RealtimeMode::Required) {
+                    started.set_value(std::unexpected("bus " + bus_.name + ": " + rt.error()));
+                    return;
+                }
+                log::warning("bus " + bus_.name + ": " + rt.error() + "; running best-effort");
+            }
+        }
+        started.set_value({});
+        impl_->run();
+    });
+    auto result = ready.get();
+    if (!result) {
+        thread_.join();
+        impl_.reset();
+    }
+    return result;
+}
+
+void BusLoop::stop() {
+    if (thread_.joinable()) {
+        impl_->request_stop();
+        thread_.join();
+    }
+}
+
+std::expected<void, master::SubmitError> BusLoop::submit(master::ClientRequest request) {
+    if (!impl_) {
+        return std::unexpected(master::SubmitError::QueueFull);
+    }
+    return impl_->submit(std::move(request));
+}
+
+master::BusStatus BusLoop::status() const {
+    return impl_ ? impl_->status() : master::BusStatus{};
+}
+
+}  // namespace drivebus::bus

@@ -1,0 +1,57 @@
+// One bus, one thread, one event loop: the OS side of the master. It owns the serial port and
+// the direction control, turns fd and timer readiness into BusEngine events, writes what the
+// engine asks for, finds out when each request has left the wire, and reopens the port with
+// back-off when the device goes away.
+#pragma once
+
+#include <atomic>
+#include <expected>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "config/config.hpp"
+#include "master/bus_engine.hpp"
+
+namespace drivebus::bus {
+
+struct LoopOptions {
+    // Real time for the bus thread; nullopt: normal scheduling.
+    std::optional<config::RealtimeConfig> realtime;
+};
+
+class BusLoop {
+public:
+    BusLoop(const config::BusConfig& bus, master::EngineCallbacks callbacks, LoopOptions options = {});
+    ~BusLoop();
+    BusLoop(const BusLoop&) = delete;
+    BusLoop& operator=(const BusLoop&) = delete;
+    BusLoop(BusLoop&&) = delete;
+    BusLoop& operator=(BusLoop&&) = delete;
+
+    // Starts the thread. Fails when real time is required and not granted.
+    std::expected<void, std::string> start();
+    void stop();
+
+    // Thread-safe: queues a client request for the bus thread.
+    std::expected<void, master::SubmitError> submit(master::ClientRequest request);
+    // Thread-safe copy of the bus status.
+    [[nodiscard]] master::BusStatus status() const;
+    // How often the loop has gone round (a watchdog can check it moves).
+    [[nodiscard]] std::uint64_t heartbeat() const noexcept { return heartbeat_.load(); }
+    [[nodiscard]] const config::BusConfig& config() const noexcept { return bus_; }
+
+private:
+    class Impl;
+    const config::BusConfig& bus_;
+    master::EngineCallbacks callbacks_;
+    LoopOptions options_;
+    std::unique_ptr<Impl> impl_;
+    std::thread thread_;
+    std::atomic<std::uint64_t> heartbeat_{0};
+};
+
+}  // namespace drivebus::bus

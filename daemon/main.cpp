@@ -1,0 +1,159 @@
+// drivebusd: owns the RS485 lines, is the Modbus RTU master for the drives on them.
+//
+//   drivebusd --config FILE [--check-config] [--profile-dir DIR] [--verbose]
+//
+// Exit codes: 0 clean stop (or a valid config with --check-config), 78 bad configuration
+// (EX_CONFIG), 2 bad command line, 1 a failure at start-up (real time required and refused).
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <systemd/sd-daemon.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bus/bus_loop.hpp"
+#include "config/config.hpp"
+#include "drivebus/version.hpp"
+#include "log/log.hpp"
+#include "rt/realtime.hpp"
+#include "serial/termios.hpp"
+#include "sys/event_loop.hpp"
+
+using namespace drivebus;
+
+namespace {
+
+constexpr int kExitConfig = 78;
+constexpr int kExitUsage = 2;
+constexpr int kExitStartup = 1;
+
+std::string describe(const config::Config& c) {
+    std::size_t drives = 0;
+    for (const auto& b : c.buses) {
+        drives += b.drives.size();
+    }
+    return std::to_string(c.buses.size()) + (c.buses.size() == 1 ? " bus, " : " buses, ") + std::to_string(drives) +
+           (drives == 1 ? " drive" : " drives");
+}
+
+std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops) {
+    std::string out;
+    for (const auto& loop : loops) {
+        const auto s = loop->status();
+        if (!out.empty()) {
+            out += "; ";
+        }
+        out += loop->config().name + (s.up ? " up" : " down") + ", " + std::to_string(s.counters.replies) +
+               " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
+    }
+    return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::string config_path;
+    std::string profile_dir;
+    bool check_only = false;
+    bool verbose = false;
+    CLI::App app{"drivebusd: Modbus RTU master for drives on RS485 lines"};
+    app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
+    app.add_option("--config", config_path, "configuration file (TOML)")->required();
+    app.add_flag("--check-config", check_only, "validate the configuration and exit (0 valid, 78 not)");
+    app.add_option("--profile-dir", profile_dir, "directory with the drive profiles (TYPE.toml)");
+    app.add_flag("--verbose,-v", verbose, "log debug messages");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::cerr << "drivebusd: " << e.what() << " (see --help)\n";
+        return kExitUsage;
+    }
+    log::init("drivebusd", verbose ? log::Level::Debug : log::Level::Info);
+
+    config::LoadOptions options;
+    if (!profile_dir.empty()) {
+        options.profile_dir = profile_dir;
+    }
+    // Validated once; nothing is opened before the whole configuration is valid.
+    const auto config = config::load_config(config_path, options);
+    if (!config) {
+        log::error(config.error().message);
+        return kExitConfig;
+    }
+    if (check_only) {
+        std::cout << config_path << ": valid, " << describe(*config) << '\n';
+        return 0;
+    }
+
+    sigset_t signals;
+    sigemptyset(&signals);
+    for (const int s : {SIGINT, SIGTERM, SIGHUP, SIGPIPE}) {
+        sigaddset(&signals, s);
+    }
+    ::pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // every thread inherits the mask
+    sys::UniqueFd signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
+
+    const auto& rt = config->realtime;
+    if (rt.mode != config::RealtimeMode::Off && rt.lock_memory) {
+        if (auto locked = rt::lock_memory(); !locked) {
+            if (rt.mode == config::RealtimeMode::Required) {
+                log::error(locked.error() + "; [realtime] mode is required");
+                return kExitStartup;
+            }
+            log::warning(locked.error() + "; running best-effort");
+        }
+    }
+
+    std::vector<std::unique_ptr<bus::BusLoop>> loops;
+    for (const auto& b : config->buses) {
+        master::EngineCallbacks callbacks;
+        callbacks.snapshot = [name = b.name](const master::DriveSnapshot& s) {
+            if (s.health == master::Health::Absent) {
+                log::debug("bus " + name + " drive " + s.name + ": absent");
+            }
+        };
+        auto loop = std::make_unique<bus::BusLoop>(b, callbacks, bus::LoopOptions{rt});
+        if (auto started = loop->start(); !started) {
+            log::error(started.error() + "; [realtime] mode is required");
+            return kExitStartup;
+        }
+        log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
+                    std::to_string(b.drives.size()) + " drives");
+        loops.push_back(std::move(loop));
+    }
+    log::notice(std::string("drivebusd ") + DRIVEBUS_VERSION_STRING + " running: " + describe(*config));
+    sd_notify(0, "READY=1");
+
+    sys::EventLoop loop;
+    sys::Timer status_timer;
+    loop.add(signal_fd.get(), [&] {
+        signalfd_siginfo info{};
+        while (::read(signal_fd.get(), &info, sizeof info) == sizeof info) {
+            if (info.ssi_signo == SIGINT || info.ssi_signo == SIGTERM) {
+                loop.stop();
+            }
+        }
+    });
+    loop.add(status_timer.fd(), [&] {
+        status_timer.acknowledge();
+        sd_notifyf(0, "STATUS=%s", status_line(loops).c_str());
+        status_timer.arm(sys::now() + std::chrono::seconds(1));
+    });
+    status_timer.arm(sys::now() + std::chrono::seconds(1));
+    (void)loop.run();
+
+    sd_notify(0, "STOPPING=1");
+    for (auto& l : loops) {
+        l->stop();
+    }
+    log::notice("stopped: " + status_line(loops));
+    return 0;
+}

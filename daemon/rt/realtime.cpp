@@ -1,0 +1,40 @@
+#include "rt/realtime.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace drivebus::rt {
+
+std::expected<void, std::string> lock_memory() {
+    if (::mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+        return std::unexpected(std::string("mlockall: ") + std::strerror(errno) +
+                               " (needs CAP_IPC_LOCK or a memlock limit)");
+    }
+    return {};
+}
+
+std::expected<void, std::string> make_realtime(int priority, const std::vector<int>& cpus) {
+    if (!cpus.empty()) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        for (const int cpu : cpus) {
+            CPU_SET(static_cast<unsigned>(cpu), &set);
+        }
+        if (const int rc = ::pthread_setaffinity_np(::pthread_self(), sizeof set, &set); rc != 0) {
+            return std::unexpected(std::string("CPU affinity: ") + std::strerror(rc));
+        }
+    }
+    sched_param param{};
+    param.sched_priority = priority;
+    if (const int rc = ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param); rc != 0) {
+        return std::unexpected(std::string("SCHED_FIFO priority ") + std::to_string(priority) + ": " +
+                               std::strerror(rc) + " (needs CAP_SYS_NICE or an rtprio limit)");
+    }
+    return {};
+}
+
+}  // namespace drivebus::rt

@@ -1,0 +1,209 @@
+// The master's bus thread on a real pty against drivebus-sim, with real time, real threads
+// and the simulator's fault injection. Every wait is a condition with a deadline.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <mutex>
+
+#include "bus/bus_loop.hpp"
+#include "fixtures.hpp"
+#include "sim_process.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+using master::Health;
+
+// W450-W459 hold these; a corrupted reply that was accepted would show another value.
+constexpr std::uint16_t kFanValue(std::uint16_t i) {
+    return static_cast<std::uint16_t>(1000 + 111 * i);
+}
+
+class Recorder {
+public:
+    master::EngineCallbacks callbacks() {
+        master::EngineCallbacks c;
+        c.snapshot = [this](const master::DriveSnapshot& s) {
+            const std::lock_guard lock(mutex_);
+            latest_[s.name] = s;
+            ++count_[s.name];
+            for (const auto& [address, v] : s.registers) {
+                if (v.valid && s.name == "fan" && v.value != kFanValue(static_cast<std::uint16_t>(address - 450))) {
+                    ++wrong_values_;
+                }
+            }
+        };
+        return c;
+    }
+    std::optional<master::DriveSnapshot> latest(const std::string& name) const {
+        const std::lock_guard lock(mutex_);
+        const auto it = latest_.find(name);
+        return it == latest_.end() ? std::nullopt : std::optional(it->second);
+    }
+    std::size_t count(const std::string& name) const {
+        const std::lock_guard lock(mutex_);
+        const auto it = count_.find(name);
+        return it == count_.end() ? 0 : it->second;
+    }
+    std::size_t wrong_values() const {
+        const std::lock_guard lock(mutex_);
+        return wrong_values_;
+    }
+
+private:
+    mutable std::mutex mutex_;
+    std::map<std::string, master::DriveSnapshot> latest_;
+    std::map<std::string, std::size_t> count_;
+    std::size_t wrong_values_ = 0;
+};
+
+class BusLoopTest : public ::testing::Test {
+protected:
+    std::unique_ptr<SimProcess> sim =
+        std::make_unique<SimProcess>(std::vector<std::string>{"--drive", "1:atv21", "--drive", "2:atv58"});
+    std::shared_ptr<const Profile> atv21 = load("atv21");
+    std::shared_ptr<const Profile> atv58 = load("atv58");
+    config::BusConfig config = bus();
+    Recorder recorder;
+    std::unique_ptr<bus::BusLoop> loop;
+
+    void SetUp() override {
+        for (std::uint16_t i = 0; i < 10; ++i) {
+            ASSERT_EQ(sim->command("set 2 W45" + std::to_string(i) + " " + std::to_string(kFanValue(i))), "ok");
+        }
+        config.device = sim->link();
+        config.response_timeout = 50ms;
+        auto pump = drive("pump", 1, atv21);
+        pump.polls.push_back(poll(*atv21, {"FD00", "FD01", "FE03", "FE05", "FC91"}, 100ms, true));
+        pump.keep_alive = 1s;
+        config.drives.push_back(pump);
+        auto fan = drive("fan", 2, atv58);
+        fan.polls.push_back(
+            poll(*atv58, {"W450", "W451", "W452", "W453", "W454", "W455", "W456", "W457", "W458", "W459"}, 200ms));
+        config.drives.push_back(fan);
+    }
+    void start() {
+        loop = std::make_unique<bus::BusLoop>(config, recorder.callbacks());
+        ASSERT_TRUE(loop->start().has_value());
+    }
+    void TearDown() override {
+        if (loop) {
+            loop->stop();
+        }
+    }
+    // Waits until `n` more snapshots of `drive` have arrived.
+    bool more_snapshots(const std::string& drive, std::size_t n, std::chrono::milliseconds timeout = 10s) {
+        const std::size_t target = recorder.count(drive) + n;
+        return wait_until([&] { return recorder.count(drive) >= target; }, timeout);
+    }
+    void expect_no_short_silence() {
+        const std::string s = sim->command("silences");
+        EXPECT_NE(s.find(" short=0 "), std::string::npos) << s;
+        EXPECT_EQ(s.find("count=0 "), std::string::npos) << s;
+    }
+};
+
+TEST_F(BusLoopTest, PollsBothDrivesWithTheSimulatorsValues) {
+    ASSERT_EQ(sim->command("set 1 FA01 4500"), "ok");
+    start();
+    ASSERT_TRUE(more_snapshots("fan", 3));
+    ASSERT_TRUE(more_snapshots("pump", 3));
+    const auto fan = recorder.latest("fan");
+    ASSERT_TRUE(fan);
+    EXPECT_EQ(fan->health, Health::Online);
+    for (std::uint16_t i = 0; i < 10; ++i) {
+        EXPECT_TRUE(fan->registers.at(static_cast<std::uint16_t>(450 + i)).valid);
+        EXPECT_EQ(fan->registers.at(static_cast<std::uint16_t>(450 + i)).value, kFanValue(i));
+    }
+    const auto pump = recorder.latest("pump");
+    ASSERT_TRUE(pump);
+    EXPECT_TRUE(pump->registers.at(0xFD01).valid);
+    // The indirect block was set up on the drive: F875 selects FD00 (2).
+    EXPECT_EQ(sim->command("get 1 F875"), "ok 2");
+    EXPECT_EQ(recorder.wrong_values(), 0U);
+    EXPECT_TRUE(loop->status().up);
+    expect_no_short_silence();
+}
+
+TEST_F(BusLoopTest, EveryFaultIsSurvivedAndCounted) {
+    start();
+    ASSERT_TRUE(more_snapshots("fan", 2));
+    const std::vector<std::pair<std::string, std::function<bool(const master::BusCounters&)>>> faults{
+        {"crc=0.5", [](const auto& c) { return c.crc_errors > 0; }},
+        {"drop=0.5", [](const auto& c) { return c.timeouts > 0; }},
+        {"gap=6:2.5", [](const auto& c) { return c.gap_errors > 0; }},
+        {"noise=3:2", [](const auto& c) { return c.noise + c.gap_errors > 0; }},
+        {"late=80ms", [](const auto& c) { return c.timeouts > 0; }},
+        {"exception=6", [](const auto& c) { return c.exceptions[6] > 0; }},
+    };
+    for (const auto& [fault, seen] : faults) {
+        ASSERT_EQ(sim->command("fault 2 " + fault).rfind("ok", 0), 0U) << fault;
+        const auto before = loop->status().counters;
+        EXPECT_TRUE(wait_until(
+            [&] {
+                auto now = loop->status().counters;
+                // Compare what grew since the fault was set.
+                master::BusCounters delta = now;
+                delta.crc_errors -= before.crc_errors;
+                delta.timeouts -= before.timeouts;
+                delta.gap_errors -= before.gap_errors;
+                delta.noise -= before.noise;
+                delta.exceptions[6] -= before.exceptions[6];
+                return seen(delta);
+            },
+            10s))
+            << fault << " was not seen by the master";
+        ASSERT_EQ(sim->command("clear").rfind("ok", 0), 0U);
+        ASSERT_TRUE(more_snapshots("fan", 2)) << "polling did not recover after " << fault;
+    }
+    EXPECT_EQ(recorder.wrong_values(), 0U) << "a value from a faulty reply was accepted";
+    expect_no_short_silence();
+}
+
+TEST_F(BusLoopTest, EchoOnA2WireLine) {
+    config.echo = config::EchoMode::Auto;
+    ASSERT_EQ(sim->command("fault * echo=1").rfind("ok", 0), 0U);
+    start();
+    ASSERT_TRUE(more_snapshots("fan", 3));
+    EXPECT_EQ(recorder.latest("fan")->registers.at(455).value, kFanValue(5));
+    EXPECT_EQ(loop->status().counters.echo_mismatches, 0U);
+    EXPECT_EQ(recorder.wrong_values(), 0U);
+}
+
+TEST_F(BusLoopTest, AbsentDriveDoesNotDelayTheOther) {
+    start();
+    ASSERT_TRUE(more_snapshots("fan", 2));
+    ASSERT_EQ(sim->command("fault 1 drop=1").rfind("ok", 0), 0U);
+    ASSERT_TRUE(
+        wait_until([&] { return recorder.latest("pump") && recorder.latest("pump")->health == Health::Absent; }, 10s));
+    // The fan keeps its 200 ms period: 10 cycles take about 2 s; allow for a slow machine.
+    const auto t0 = std::chrono::steady_clock::now();
+    ASSERT_TRUE(more_snapshots("fan", 10));
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, 6s);
+    ASSERT_EQ(sim->command("clear").rfind("ok", 0), 0U);
+    EXPECT_TRUE(wait_until([&] { return recorder.latest("pump")->health == Health::Online; }, 15s));
+}
+
+TEST_F(BusLoopTest, DeviceVanishesAndComesBack) {
+    start();
+    ASSERT_TRUE(more_snapshots("fan", 2));
+    const auto dir = sim->link().parent_path();
+    ASSERT_EQ(sim->stop(), 0);
+    EXPECT_TRUE(wait_until([&] { return !loop->status().up; }, 10s)) << "the bus did not notice the device going";
+    // The device comes back at the same path (a new pty behind the same link).
+    auto again =
+        std::make_unique<SimProcess>(std::vector<std::string>{"--drive", "1:atv21", "--drive", "2:atv58"}, dir);
+    for (std::uint16_t i = 0; i < 10; ++i) {
+        ASSERT_EQ(again->command("set 2 W45" + std::to_string(i) + " " + std::to_string(kFanValue(i))), "ok");
+    }
+    EXPECT_TRUE(wait_until([&] { return loop->status().up; }, 15s)) << "the bus did not reopen";
+    EXPECT_TRUE(more_snapshots("fan", 3));
+    EXPECT_EQ(recorder.latest("fan")->health, Health::Online);
+    EXPECT_GE(loop->status().counters.line_down, 1U);
+    loop->stop();
+    sim = std::move(again);
+}
+
+}  // namespace
+}  // namespace drivebus::test
