@@ -1,8 +1,10 @@
 #include "serial/termios.hpp"
 
 #include <termios.h>
+#include <unistd.h>
 
 #include <array>
+#include <string_view>
 #include <utility>
 
 namespace drivebus::serial {
@@ -31,6 +33,11 @@ tcflag_t data_bits_flag(std::uint8_t bits) {
     case 7: return CS7;
     default: return CS8;
     }
+}
+
+bool is_pty(int fd) {
+    std::array<char, 64> name{};
+    return ::ttyname_r(fd, name.data(), name.size()) == 0 && std::string_view(name.data()).starts_with("/dev/pts/");
 }
 
 }  // namespace
@@ -76,7 +83,15 @@ std::expected<void, sys::SysError> configure_line(int fd, const rtu::LineFormat&
     if (::cfsetispeed(&tio, *speed) != 0 || ::cfsetospeed(&tio, *speed) != 0) {
         return std::unexpected(sys::SysError{"cfsetspeed", errno});
     }
-    if (auto set = sys::posix_call("tcsetattr", [&] { return ::tcsetattr(fd, TCSANOW, &tio); }); !set) {
+    auto set = sys::posix_call("tcsetattr", [&] { return ::tcsetattr(fd, TCSANOW, &tio); });
+    if (!set && set.error().error == EINVAL && (tio.c_cflag & PARENB) != 0 && is_pty(fd)) {
+        // A pseudo-terminal carries bytes, not bits, and this kernel refuses PARENB on one.
+        // The format still sets the timing (the character is 11 bits long on the real line).
+        tio.c_cflag &= ~static_cast<tcflag_t>(PARENB | PARODD);
+        tio.c_iflag &= ~static_cast<tcflag_t>(INPCK);
+        set = sys::posix_call("tcsetattr", [&] { return ::tcsetattr(fd, TCSANOW, &tio); });
+    }
+    if (!set) {
         return std::unexpected(set.error());
     }
     return {};
