@@ -19,11 +19,12 @@ std::string_view to_string(Outcome outcome) noexcept {
 Transaction::Transaction(TransactionOptions options, rtu::RequestAdu request, rtu::Adu adu)
     : options_(options), request_(std::move(request)), adu_(adu) {}
 
-void Transaction::written(rtu::Instant /*now*/) {
+void Transaction::written(rtu::Instant now) {
     if (state_ != State::ReadyToSend) {
         return;
     }
     ++attempts_;
+    written_at_ = now;
     state_ = State::Sending;
     deadline_.reset();
 }
@@ -43,7 +44,9 @@ void Transaction::sent(rtu::Instant tx_end) {
 }
 
 Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
-    if (state_ != State::AwaitingReply) {
+    // A reply can beat the computed end of our transmission where nothing paces the line
+    // (a pty pair, a USB adapter's buffering): it still answers this request.
+    if (state_ != State::AwaitingReply && state_ != State::Sending) {
         return Verdict::Ignored;
     }
     const auto reply = rtu::decode_response(request_, frame.adu.bytes());
@@ -56,7 +59,7 @@ Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
     }
     result_ = Result{};
     result_->response = reply->pdu;
-    result_->latency = frame.last - tx_end_;
+    result_->latency = frame.last - (state_ == State::AwaitingReply ? tx_end_ : written_at_);
     const bool exception = std::holds_alternative<rtu::ExceptionResponse>(reply->pdu);
     finish(exception ? Outcome::Exception : Outcome::Ok, frame.last);
     return Verdict::Reply;

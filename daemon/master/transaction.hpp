@@ -75,6 +75,7 @@ private:
     rtu::Adu adu_;
     State state_ = State::ReadyToSend;
     unsigned attempts_ = 0;
+    rtu::Instant written_at_{};
     rtu::Instant tx_end_{};
     std::optional<rtu::Instant> deadline_;
     std::optional<Result> result_;

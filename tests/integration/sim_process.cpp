@@ -43,7 +43,7 @@ fs::path fresh_dir() {
     return pattern;
 }
 
-int spawn(const std::vector<std::string>& args, const fs::path& log) {
+int spawn(std::string program, const std::vector<std::string>& args, const fs::path& log) {
     const pid_t pid = ::fork();
     if (pid < 0) {
         throw std::runtime_error("fork failed");
@@ -53,7 +53,6 @@ int spawn(const std::vector<std::string>& args, const fs::path& log) {
         ::dup2(out, STDERR_FILENO);
         ::dup2(out, STDOUT_FILENO);
         std::vector<char*> argv;
-        std::string program = DRIVEBUS_SIM_PATH;
         argv.push_back(program.data());
         std::vector<std::string> copy = args;
         for (auto& a : copy) {
@@ -93,7 +92,7 @@ SimProcess::SimProcess(std::vector<std::string> args, std::optional<fs::path> di
       log_(dir_ / "sim.log"),
       owns_dir_(!dir) {
     args.insert(args.begin(), {"--link", link_.string(), "--control", control_.string()});
-    pid_ = spawn(args, log_);
+    pid_ = spawn(DRIVEBUS_SIM_PATH, args, log_);
     // The simulator prints its one-line banner once the line and the control socket are up.
     const bool ready = wait_until(
         [&] {
@@ -157,10 +156,46 @@ std::string SimProcess::command(const std::string& line) const {
     return answer;
 }
 
+Child::Child(std::vector<std::string> argv) : dir_(fresh_dir()), log_(dir_ / "child.log") {
+    const std::string program = argv.front();
+    argv.erase(argv.begin());
+    pid_ = spawn(program, argv, log_);
+}
+
+Child::~Child() {
+    stop();
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+}
+
+int Child::stop() {
+    if (pid_ < 0) {
+        return -1;
+    }
+    ::kill(pid_, SIGTERM);
+    const int status = wait_exit(pid_, 5s);
+    pid_ = -1;
+    return status;
+}
+
+std::string Child::output() const { return slurp(log_); }
+
+std::pair<int, std::string> run_program(const std::vector<std::string>& argv) {
+    const fs::path dir = fresh_dir();
+    const fs::path log = dir / "out.log";
+    std::vector<std::string> args(argv.begin() + 1, argv.end());
+    const int pid = spawn(argv.front(), args, log);
+    const int status = wait_exit(pid, 10s);
+    std::string out = slurp(log);
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    return {status, out};
+}
+
 std::pair<int, std::string> run_sim(const std::vector<std::string>& args) {
     const fs::path dir = fresh_dir();
     const fs::path log = dir / "sim.log";
-    const int pid = spawn(args, log);
+    const int pid = spawn(DRIVEBUS_SIM_PATH, args, log);
     const int status = wait_exit(pid, 5s);
     std::string out = slurp(log);
     std::error_code ec;

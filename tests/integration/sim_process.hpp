@@ -47,6 +47,27 @@ private:
     bool owns_dir_ = true;
 };
 
+// Any program as a child process, its output in a file. Stopped (SIGTERM) when it goes.
+class Child {
+public:
+    explicit Child(std::vector<std::string> argv);
+    ~Child();
+    Child(const Child&) = delete;
+    Child& operator=(const Child&) = delete;
+    Child(Child&&) = delete;
+    Child& operator=(Child&&) = delete;
+    int stop();
+    [[nodiscard]] std::string output() const;
+
+private:
+    std::filesystem::path dir_;
+    std::filesystem::path log_;
+    int pid_ = -1;
+};
+
+// Runs a program to completion (10 s at most); returns its exit status and output.
+std::pair<int, std::string> run_program(const std::vector<std::string>& argv);
+
 // Runs drivebus-sim to completion with `args` (for argument errors); returns its exit status
 // and stderr.
 std::pair<int, std::string> run_sim(const std::vector<std::string>& args);

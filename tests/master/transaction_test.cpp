@@ -41,6 +41,17 @@ TEST(Transaction, ReplyCompletesIt) {
     EXPECT_EQ(t.result()->attempts, 1U);
 }
 
+TEST(Transaction, ReplyBeforeTheComputedEndOfTransmissionCounts) {
+    // Nothing paces a pty pair: the reply can arrive before the request's computed wire time.
+    auto t = make();
+    t.written(t0);
+    EXPECT_EQ(t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{1}}}, t0 + 1ms)), Transaction::Verdict::Reply);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->latency, 1ms);
+    t.sent(t0 + 4ms);  // the transmitter report that follows changes nothing
+    EXPECT_EQ(t.state(), Transaction::State::Done);
+}
+
 TEST(Transaction, TimeoutsRetryThenGiveUp) {
     auto t = make(2);
     for (int attempt = 1; attempt <= 3; ++attempt) {
