@@ -139,16 +139,22 @@ void Framer::discard(FrameFault fault) noexcept {
 }
 
 void Framer::poll(Instant now) noexcept {
-    if (open_ && now - last_ >= timing_.t3_5) {
+    if (open_ && now >= silence_known(last_)) {
         finish_frame();
     }
+}
+
+// Characters are seen when they end: a character that began just inside t3.5 is still on the
+// wire until one character time later. Only then is a silence of t3.5 certain.
+Instant Framer::silence_known(Instant last) const noexcept {
+    return last + timing_.t3_5 + timing_.character;
 }
 
 std::optional<Instant> Framer::deadline() const noexcept {
     if (!open_) {
         return std::nullopt;
     }
-    return last_ + timing_.t3_5;
+    return silence_known(last_);
 }
 
 void Framer::expect_reply(const RequestAdu& request) noexcept {

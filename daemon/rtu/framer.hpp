@@ -7,7 +7,7 @@
 //
 // Two ways to end a frame:
 //  - by silence (slave side, and the master's fallback): a frame ends when t3.5 passes after
-//    its last character;
+//    its last character (known for certain one character time later, see poll());
 //  - by expectation (master side, after expect_reply()): a reply ends as soon as it has the
 //    length the request calls for and a good CRC, without waiting for the silence. A reply
 //    that does not fit (other slave or function, bad CRC at that length) is framed by silence.
@@ -79,10 +79,14 @@ public:
     void feed(std::span<const std::uint8_t> bytes, Instant read_time) noexcept;
     // Already-decoded characters from one read, returned at `read_time`.
     void feed_chars(std::span<const RxChar> chars, Instant read_time) noexcept;
-    // Time has reached `now`: ends a frame whose t3.5 silence has passed.
+    // Time has reached `now`: ends a frame whose t3.5 silence is certain. Characters are seen
+    // when they end, so that is t3.5 plus one character time after the last one (a character
+    // that began inside the t3.5 would have ended by then). A character that arrives is judged
+    // exactly: a silence >= t3.5 before it ends the frame.
     void poll(Instant now) noexcept;
 
-    // When poll() must next be called: t3.5 after the last character of an open frame.
+    // When poll() must next be called: t3.5 + one character after the last character of an
+    // open frame.
     [[nodiscard]] std::optional<Instant> deadline() const noexcept;
     // End of the last character received, if any: the silence clock.
     [[nodiscard]] std::optional<Instant> last_activity() const noexcept { return last_activity_; }
@@ -103,6 +107,7 @@ public:
 
 private:
     void receive(RxChar c, Instant t) noexcept;
+    [[nodiscard]] Instant silence_known(Instant last) const noexcept;
     void start_frame(Instant t) noexcept;
     void finish_frame() noexcept;
     void try_complete_reply() noexcept;

@@ -45,11 +45,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         pos += length;
         take();
         if ((flags & 1U) != 0) {
-            framer.poll(now + kTiming.t3_5);
+            framer.poll(now + kTiming.t3_5 + kTiming.character);
             take();
         }
     }
-    framer.poll(now + kTiming.t3_5);
+    framer.poll(now + kTiming.t3_5 + kTiming.character);
     take();
     if (framer.frame_open() || accounted != framer.stats().characters) {
         std::abort();

@@ -62,7 +62,7 @@ public:
     void advance(Duration d) { now_ += d; }
     // Lets time run to `after` past the last character's end and polls the framer.
     void idle(Duration after) { framer_.poll(now_ + after); }
-    void idle_past_t35() { idle(timing_.t3_5); }
+    void idle_past_t35() { idle(timing_.t3_5 + timing_.character); }
     [[nodiscard]] Instant now() const { return now_; }
 
 private:
@@ -121,10 +121,12 @@ TEST_P(FramerFormats, FrameEndsExactlyAtThreeAndAHalfCharacters) {
     Wire wire(framer, timing);
     wire.send(kFrame);
     EXPECT_TRUE(framer.frame_open());
-    EXPECT_EQ(framer.deadline(), wire.now() + timing.t3_5);
-    wire.idle(timing.t3_5 - 1ns);
+    // A character that began just inside t3.5 would end one character later: only then is
+    // the silence certain.
+    EXPECT_EQ(framer.deadline(), wire.now() + timing.t3_5 + timing.character);
+    wire.idle(timing.t3_5 + timing.character - 1ns);
     EXPECT_FALSE(framer.next_event().has_value());
-    wire.idle(timing.t3_5);
+    wire.idle(timing.t3_5 + timing.character);
     const auto events = drain(framer);
     ASSERT_EQ(events.size(), 1U) << describe(events);
     const auto& frame = std::get<Frame>(events[0]);
@@ -330,7 +332,7 @@ TEST(Framer, LargeEscapedReadKeepsCharacterTimes) {
     const std::vector<std::uint8_t> raw(300, 0xFF);
     const Instant read_time{std::chrono::seconds(5)};
     framer.feed(raw, read_time);
-    framer.poll(read_time + timing.t3_5);
+    framer.poll(read_time + timing.t3_5 + timing.character);
     const auto events = drain(framer);
     ASSERT_EQ(events.size(), 1U);
     const auto& discarded = std::get<DiscardedFrame>(events[0]);

@@ -180,11 +180,11 @@ TEST(Property, FramerConservesEveryCharacter) {
             framer.feed(bytes, now);
             take();
             if (pick(0, 4) == 0) {
-                framer.poll(now + timing.t3_5);
+                framer.poll(now + timing.t3_5 + timing.character);
                 take();
             }
         }
-        framer.poll(now + timing.t3_5);
+        framer.poll(now + timing.t3_5 + timing.character);
         take();
         ASSERT_FALSE(framer.frame_open());
         // Every character received ends up in exactly one frame or discarded frame.
