@@ -44,8 +44,9 @@ void Bus::advance(rtu::Instant now) {
     }
 }
 
-void Bus::record_silence(rtu::Duration silence) {
-    if (silence < options_.timing.t3_5) {
+void Bus::record_silence(rtu::Duration at_least, rtu::Duration at_most) {
+    const rtu::Duration silence = at_least;
+    if (at_most < options_.timing.t3_5) {
         ++short_silences_;
     }
     constexpr std::size_t kKept = 1'000'000;
@@ -66,6 +67,7 @@ std::string Bus::silence_summary() const {
     };
     const auto fmt = [](double v) { return std::to_string(static_cast<long long>(std::llround(v))); };
     return "count=" + std::to_string(s.size()) + " short=" + std::to_string(short_silences_) +
+           " after_slip=" + std::to_string(slips_) +
            " t35_us=" + fmt(std::chrono::duration<double, std::micro>(options_.timing.t3_5).count()) +
            " min_us=" + fmt(s.empty() ? 0.0 : s.front()) + " p50_us=" + fmt(at(0.5)) + " p99_us=" + fmt(at(0.99)) +
            " max_us=" + fmt(s.empty() ? 0.0 : s.back());

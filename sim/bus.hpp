@@ -49,10 +49,14 @@ public:
     [[nodiscard]] TxPlan on_received(std::span<const std::uint8_t> bytes, rtu::Instant last_char_end);
     // Lets every drive's time run to `now`.
     void advance(rtu::Instant now);
-    // A request began `silence` after the last character this line sent: the master kept
-    // that much silence. Recorded for the `silences` command.
-    void record_silence(rtu::Duration silence);
-    // "count=N short=M min_us=... p50_us=... p99_us=... max_us=..." (short: below t3.5).
+    // A request began `at_least` to `at_most` after the last character this line sent (the
+    // simulator knows its write only between two clock readings): the master kept about that
+    // much silence. `at_least` feeds the distribution; `at_most` below t3.5 is a definite
+    // violation. Recorded for the `silences` command.
+    void record_silence(rtu::Duration at_least, rtu::Duration at_most);
+    // A request followed a reply the simulator failed to pace (a character later than t1.5).
+    void record_slip() noexcept { ++slips_; }
+    // "count=N short=M min_us=... p50_us=... p99_us=... max_us=..." (short: definitely below t3.5).
     [[nodiscard]] std::string silence_summary() const;
 
     [[nodiscard]] FaultTable& faults() noexcept { return faults_; }
@@ -70,6 +74,7 @@ private:
     std::mt19937 rng_;
     std::vector<double> silences_us_;
     std::uint64_t short_silences_ = 0;
+    std::uint64_t slips_ = 0;
 };
 
 }  // namespace drivebus::sim

@@ -235,7 +235,7 @@ int run(const Options& o) {
     sys::EventLoop loop;
     rtu::Framer framer(*timing, pty ? rtu::InputMarking::Plain : rtu::InputMarking::Parmrk);
     sim::ArrivalModel arrival(timing->character, o.pace);
-    sim::PacedWriter writer(line.fd.get(), std::chrono::microseconds(200));
+    sim::PacedWriter writer(line.fd.get(), std::chrono::microseconds(200), timing->t1_5);
     sys::Timer frame_timer;
     int status = 0;
 
@@ -273,8 +273,15 @@ int run(const Options& o) {
             const auto bytes = std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n));
             const rtu::Instant read_time = sys::now();
             // A new frame begins: how long after our last character did the master start it?
-            if (!framer.frame_open() && writer.last_written()) {
-                bus.record_silence(read_time - *writer.last_written());
+            // (Not after a reply the simulator itself sent late: the master rightly took the
+            // hole in it for the end of the line's activity.)
+            if (!framer.frame_open() && writer.last_write()) {
+                if (writer.slipped() || writer.stalled(read_time)) {
+                    bus.record_slip();
+                } else {
+                    bus.record_silence(read_time - writer.last_write()->second, read_time - writer.last_write()->first);
+                }
+                writer.clear_slip();
             }
             const rtu::Instant t = arrival.place(bytes.size(), read_time);
             writer.enqueue(bus.on_received(bytes, t));

@@ -7,7 +7,7 @@
 
 namespace drivebus::sim {
 
-PacedWriter::PacedWriter(int fd, rtu::Duration spin) : fd_(fd), spin_(spin) {}
+PacedWriter::PacedWriter(int fd, rtu::Duration spin, rtu::Duration slip) : fd_(fd), spin_(spin), slip_(slip) {}
 
 void PacedWriter::enqueue(const TxPlan& plan) {
     for (const TxByte& b : plan) {
@@ -30,17 +30,23 @@ void PacedWriter::service() {
         while (now < queue_.front().at) {
             now = sys::now();
         }
+        if (now - queue_.front().at > slip_) {
+            slipped_ = true;
+            ++slips_;
+        }
         std::array<std::uint8_t, 256> burst{};
         std::size_t n = 0;
         while (!queue_.empty() && queue_.front().at <= now && n < burst.size()) {
             burst[n++] = queue_.front().value;
             queue_.pop_front();
         }
+        const rtu::Instant before = sys::now();
         const auto wrote = sys::posix_call("write", [&] { return ::write(fd_, burst.data(), n); });
         const std::size_t sent = wrote ? static_cast<std::size_t>(*wrote) : 0;
         written_ += sent;
         lost_ += n - sent;
-        last_written_ = sys::now();
+        // The bytes left somewhere between the two readings of the clock.
+        last_write_ = {before, sys::now()};
     }
     timer_.disarm();
 }

@@ -261,12 +261,13 @@ std::optional<rtu::Instant> BusEngine::next_wakeup() const {
     };
     consider(framer_.deadline());
     consider(echo_deadline_);
+    // While a frame is open, its end (the framer's deadline) comes first.
     if (transaction_) {
         consider(transaction_->deadline());
-        if (transaction_->state() == Transaction::State::ReadyToSend) {
+        if (transaction_->state() == Transaction::State::ReadyToSend && !framer_.frame_open()) {
             consider(line_free_at());
         }
-    } else if (up_ && !transmitting_) {
+    } else if (up_ && !transmitting_ && !framer_.frame_open()) {
         if (const auto due = scheduler_.next_due()) {
             consider(std::max(*due, line_free_at()));
         }

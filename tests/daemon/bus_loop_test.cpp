@@ -97,10 +97,17 @@ protected:
         const std::size_t target = recorder.count(drive) + n;
         return wait_until([&] { return recorder.count(drive) >= target; }, timeout);
     }
+    // On the simulator's side, no request started less than t3.5 after its last character,
+    // except after a reply the master saw broken: a pty can hold a byte back in a kernel worker
+    // past t3.5, and the master can only go by what it has received.
     void expect_no_short_silence() {
         const std::string s = sim->command("silences");
-        EXPECT_NE(s.find(" short=0 "), std::string::npos) << s;
-        EXPECT_EQ(s.find("count=0 "), std::string::npos) << s;
+        ASSERT_EQ(s.find("count=0 "), std::string::npos) << s;
+        const auto at = s.find(" short=");
+        ASSERT_NE(at, std::string::npos) << s;
+        const auto shorts = std::stoull(s.substr(at + 7));
+        const auto& c = loop->status().counters;
+        EXPECT_LE(shorts, c.crc_errors + c.gap_errors + c.noise + c.timeouts + c.malformed) << s;
     }
 };
 

@@ -100,7 +100,8 @@ TEST_F(DrivebusdCli, BadConfigurationsAreOneLineAndExit78) {
 }
 
 TEST_F(DrivebusdCli, MissingFileAndBadArguments) {
-    const auto [status, out] = run_program({DRIVEBUSD_PATH, "--config", (dir / "nope.toml").string(), "--check-config"});
+    const auto [status, out] =
+        run_program({DRIVEBUSD_PATH, "--config", (dir / "nope.toml").string(), "--check-config"});
     EXPECT_EQ(status, 78);
     EXPECT_NE(out.find("nope.toml"), std::string::npos) << out;
     const auto [status2, out2] = run_program({DRIVEBUSD_PATH, "--check-config"});

@@ -125,7 +125,13 @@ TEST(SimLineAt9600, GapFault) {
         EXPECT_FALSE(r.reply);
         const bool gap_seen = std::ranges::any_of(
             r.discarded, [](const rtu::DiscardedFrame& d) { return d.fault == rtu::FrameFault::InterCharacterGap; });
-        EXPECT_TRUE(gap_seen);
+        std::string seen;
+        for (const auto& d : r.discarded) {
+            seen += std::string(rtu::to_string(d.fault)) + " (" + std::to_string(d.bytes) + " bytes); ";
+        }
+        EXPECT_TRUE(gap_seen) << "discarded: " << seen
+                              << "silence before byte 4: " << (r.byte_times[4] - r.byte_times[3] - t.character).count()
+                              << " ns";
     }
     EXPECT_NE(sim.command("stats").find(" gap=1 "), std::string::npos);
 }

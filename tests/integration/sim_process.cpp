@@ -178,7 +178,9 @@ int Child::stop() {
     return status;
 }
 
-std::string Child::output() const { return slurp(log_); }
+std::string Child::output() const {
+    return slurp(log_);
+}
 
 std::pair<int, std::string> run_program(const std::vector<std::string>& argv) {
     const fs::path dir = fresh_dir();
