@@ -20,8 +20,7 @@ EchoSetting echo_setting(config::EchoMode mode) {
 
 BusEngine::BusEngine(const config::BusConfig& bus, rtu::CharacterTiming timing, EngineCallbacks callbacks,
                      rtu::Instant now)
-    : bus_(bus),
-      timing_(timing),
+    : timing_(timing),
       callbacks_(std::move(callbacks)),
       framer_(timing, rtu::InputMarking::Parmrk),
       echo_(echo_setting(bus.echo)),

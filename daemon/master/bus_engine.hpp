@@ -63,7 +63,6 @@ private:
     void finish_if_done(rtu::Instant now);
     void count_exception(std::optional<rtu::ExceptionCode> code, std::array<std::uint64_t, 12>& table);
 
-    const config::BusConfig& bus_;
     rtu::CharacterTiming timing_;
     EngineCallbacks callbacks_;
     rtu::Framer framer_;
