@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -115,10 +116,22 @@ int main(int argc, char** argv) {
     std::vector<std::unique_ptr<bus::BusLoop>> loops;
     for (const auto& b : config->buses) {
         master::EngineCallbacks callbacks;
-        callbacks.snapshot = [name = b.name](const master::DriveSnapshot& s) {
-            if (s.health == master::Health::Absent) {
-                log::debug("bus " + name + " drive " + s.name + ": absent");
+        // Runs on the bus thread: the map is that thread's alone.
+        callbacks.snapshot = [name = b.name, health = std::map<std::string, master::Health>{},
+                              limiter = std::make_shared<log::RateLimited>()](const master::DriveSnapshot& s) mutable {
+            auto& last = health[s.name];
+            if (s.health == last) {
+                return;
             }
+            const std::string key = name + "/" + s.name;
+            if (s.health == master::Health::Absent) {
+                limiter->write(log::Level::Warning, key,
+                               "bus " + name + " drive " + s.name + " (address " + std::to_string(s.address) +
+                                   "): absent, no reply after every retry; probing with back-off");
+            } else if (s.health == master::Health::Online && last == master::Health::Absent) {
+                log::notice("bus " + name + " drive " + s.name + ": answering again");
+            }
+            last = s.health;
         };
         auto loop = std::make_unique<bus::BusLoop>(b, callbacks, bus::LoopOptions{rt});
         if (auto started = loop->start(); !started) {
