@@ -199,6 +199,7 @@ private:
                     lost(released.error().message);
                     return;
                 }
+                log_edges(*done);
                 engine_.transmitted(*done);
                 engine_.on_time(now);
             }
@@ -208,6 +209,21 @@ private:
         }
         publish_status();
         arm();
+    }
+
+    // With drivebusd switching the driver itself, the debug log shows each request's edges:
+    // enabled before the write, released after the transmitter emptied.
+    void log_edges(rtu::Instant tx_end) {
+        const auto& edges = direction_->edges();
+        if (direction_->needs_release() && edges.size() >= 2 && written_at_) {
+            const auto us = [](rtu::Duration d) { return std::to_string(d.count() / 1000); };
+            const auto& on = edges[edges.size() - 2];
+            const auto& off = edges.back();
+            log::debug("bus " + bus_.name + ": " + std::string(direction_->name()) + " enabled " +
+                       us(*written_at_ - on.at) + " us before the write, released " + us(off.at - tx_end) +
+                       " us after the transmitter emptied (" + us(tx_end - *written_at_) + " us on the wire)");
+        }
+        direction_->clear_edges();
     }
 
     void transmit(rtu::Instant now) {
@@ -237,6 +253,7 @@ private:
             }
         }
         const rtu::Instant written = sys::now();
+        written_at_ = written;
         engine_.written(written);
         tracker_->started(written, adu->size());
     }
@@ -279,6 +296,7 @@ private:
     std::optional<serial::TransmitTracker> tracker_;
     rtu::Duration reopen_delay_{};
     std::optional<rtu::Instant> reopen_at_;
+    std::optional<rtu::Instant> written_at_;
     log::RateLimited limiter_{std::chrono::seconds(60)};
     std::atomic<bool> stopping_{false};
 

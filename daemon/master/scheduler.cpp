@@ -235,8 +235,12 @@ std::optional<Job> Scheduler::next_poll(rtu::Instant now) {
     }
     Group& group = drives_[pick->first].groups[pick->second];
     group.cursor = 0;
-    // Next cycle one period on; a late cycle does not cause a burst of catch-up polls.
-    group.next_due = std::max(group.next_due + group.config->period, now);
+    // Next cycle one period on; after a late cycle, one period from now: missed cycles are not
+    // caught up in a burst.
+    group.next_due += group.config->period;
+    if (group.next_due <= now) {
+        group.next_due = now + group.config->period;
+    }
     return read_job(JobKind::Poll, pick->first, pick->second, 0);
 }
 

@@ -1,0 +1,147 @@
+// The scheduler on a fake clock: read planning within drive limits, priorities, fairness,
+// absent drives and their back-off.
+#include "master/scheduler.hpp"
+
+#include <gtest/gtest.h>
+
+#include "fixtures.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+using master::JobKind;
+using master::Outcome;
+
+const rtu::Instant t0{std::chrono::seconds(50)};
+
+master::Result answered() {
+    master::Result r;
+    r.outcome = Outcome::Ok;
+    r.response = rtu::ReadHoldingRegistersResponse{{1, 2, 3, 4, 5}};
+    return r;
+}
+
+master::Result silent() {
+    master::Result r;
+    r.outcome = Outcome::Timeout;
+    return r;
+}
+
+TEST(PlanReads, SplitsWithinTheDrivesLimit) {
+    const auto atv21 = load("atv21");
+    const auto atv58 = load("atv58");
+    // The ATV21 reads one word per plain FC03.
+    const auto one_by_one =
+        master::plan_reads(poll(*atv21, {"FD00", "FD01"}, 100ms), *atv21, master::limits_of(*atv21));
+    ASSERT_EQ(one_by_one.size(), 2U);
+    EXPECT_EQ(one_by_one[1].start, 0xFD01);
+    // The ATV58 reads consecutive words together, up to 32.
+    std::vector<std::string> names;
+    for (int i = 450; i <= 459; ++i) {
+        names.push_back("W" + std::to_string(i));
+    }
+    names.push_back("W400");
+    const auto merged = master::plan_reads(poll(*atv58, names, 100ms), *atv58, master::limits_of(*atv58));
+    ASSERT_EQ(merged.size(), 2U);
+    EXPECT_EQ(merged[0].start, 450);
+    EXPECT_EQ(merged[0].quantity, 10);
+    EXPECT_EQ(merged[1].start, 400);
+    // The indirect block: one read at 0x1875 for the five registers.
+    const auto block =
+        master::plan_reads(poll(*atv21, {"FD00", "FD01", "FE03"}, 100ms, true), *atv21, master::limits_of(*atv21));
+    ASSERT_EQ(block.size(), 1U);
+    EXPECT_EQ(block[0].start, 0x1875);
+    EXPECT_EQ(block[0].quantity, 3);
+    EXPECT_EQ(block[0].addresses, (std::vector<std::uint16_t>{0xFD00, 0xFD01, 0xFE03}));
+}
+
+class SchedulerTest : public ::testing::Test {
+protected:
+    std::shared_ptr<const Profile> atv58 = load("atv58");
+    config::BusConfig config = bus();
+
+    void SetUp() override {
+        auto a = drive("a", 1, atv58);
+        a.polls.push_back(poll(*atv58, {"W450"}, 100ms));
+        auto b = drive("b", 2, atv58);
+        b.polls.push_back(poll(*atv58, {"W451"}, 100ms));
+        config.drives = {a, b};
+    }
+};
+
+TEST_F(SchedulerTest, PollsAtTheirPeriodsWithoutCatchUpBursts) {
+    master::Scheduler s(config, t0);
+    auto j1 = s.next(t0);
+    ASSERT_TRUE(j1);
+    EXPECT_EQ(j1->kind, JobKind::Poll);
+    (void)s.complete(*j1, answered(), t0);
+    auto j2 = s.next(t0);
+    ASSERT_TRUE(j2);
+    EXPECT_NE(j2->drive, j1->drive);
+    (void)s.complete(*j2, answered(), t0);
+    EXPECT_FALSE(s.next(t0 + 50ms));
+    EXPECT_EQ(s.next_due(), t0 + 100ms);
+    // Half a second late: one cycle each, not five.
+    int polls = 0;
+    while (auto j = s.next(t0 + 600ms)) {
+        (void)s.complete(*j, answered(), t0 + 600ms);
+        ++polls;
+    }
+    EXPECT_EQ(polls, 2);
+}
+
+TEST_F(SchedulerTest, ClientWritesFirstAndFairBetweenClients) {
+    master::Scheduler s(config, t0);
+    ASSERT_TRUE(s.submit({10, 1, {1, rtu::ReadHoldingRegisters{450, 1}}}).has_value());
+    ASSERT_TRUE(s.submit({10, 2, {1, rtu::WriteSingleRegister{400, 1}}}).has_value());
+    ASSERT_TRUE(s.submit({10, 3, {1, rtu::WriteSingleRegister{400, 2}}}).has_value());
+    ASSERT_TRUE(s.submit({20, 4, {2, rtu::WriteSingleRegister{400, 3}}}).has_value());
+    std::vector<std::uint64_t> order;
+    while (auto j = s.next(t0)) {
+        if (j->kind != JobKind::Client) {
+            break;
+        }
+        order.push_back(j->correlation);
+        (void)s.complete(*j, answered(), t0);
+    }
+    // Writes first, alternating clients 10 and 20, then the read.
+    EXPECT_EQ(order, (std::vector<std::uint64_t>{2, 4, 3, 1}));
+}
+
+TEST_F(SchedulerTest, AbsentDrivesAreProbedWithDoublingBackOff) {
+    config.absent_backoff_min = 1s;
+    config.absent_backoff_max = 4s;
+    master::Scheduler s(config, t0);
+    rtu::Instant now = t0;
+    // Drive a never answers.
+    auto run_until = [&](rtu::Instant end, std::vector<rtu::Instant>& probes) {
+        while (now <= end) {
+            if (auto j = s.next(now)) {
+                if (j->drive == 0) {
+                    if (j->kind == JobKind::Probe) {
+                        probes.push_back(now);
+                        EXPECT_EQ(j->retries, 0U);
+                    }
+                    (void)s.complete(*j, silent(), now);
+                } else {
+                    (void)s.complete(*j, answered(), now);
+                }
+                continue;
+            }
+            now += 10ms;
+        }
+    };
+    std::vector<rtu::Instant> probes;
+    run_until(t0 + 20s, probes);
+    EXPECT_EQ(s.health(0), master::Health::Absent);
+    EXPECT_EQ(s.health(1), master::Health::Online);
+    ASSERT_GE(probes.size(), 4U);
+    EXPECT_EQ(probes[1] - probes[0], 2s);
+    EXPECT_EQ(probes[2] - probes[1], 4s);
+    EXPECT_EQ(probes[3] - probes[2], 4s);  // capped
+    EXPECT_EQ(s.snapshot(0).counters.absent_transitions, 1U);
+}
+
+}  // namespace
+}  // namespace drivebus::test
