@@ -111,28 +111,11 @@ std::expected<Config, ConfigError> parse_config(std::string_view text, std::stri
 }
 
 std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadOptions& options) {
-    const auto name = file.string();
-    std::error_code ec;
-    const auto status = fs::status(file, ec);
-    if (ec) {
-        return fail(name + ": " + ec.message());
+    auto text = profile_detail::read_small_file(file, kMaxFileSize, "a configuration");
+    if (!text) {
+        return fail(text.error());
     }
-    if (!fs::is_regular_file(status)) {
-        return fail(name + ": not a regular file");
-    }
-    const auto size = fs::file_size(file, ec);
-    if (ec) {
-        return fail(name + ": " + ec.message());
-    }
-    if (size > kMaxFileSize) {
-        return fail(name + ": " + std::to_string(size) + " bytes is too large for a configuration");
-    }
-    std::string text(static_cast<std::size_t>(size), '\0');
-    std::ifstream in(file, std::ios::binary);
-    if (!in.read(text.data(), static_cast<std::streamsize>(text.size()))) {
-        return fail(name + ": cannot be read");
-    }
-    return parse_config(text, name, options);
+    return parse_config(*text, file.string(), options);
 }
 
 std::string_view to_string(DirectionMode mode) noexcept {

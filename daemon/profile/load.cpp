@@ -29,28 +29,11 @@ std::unexpected<ProfileError> fail(std::string message) {
 }  // namespace
 
 std::expected<Profile, ProfileError> load_profile(const fs::path& file) {
-    const auto name = file.string();
-    std::error_code ec;
-    const auto status = fs::status(file, ec);
-    if (ec) {
-        return fail(name + ": " + ec.message());
+    auto text = profile_detail::read_small_file(file, kMaxFileSize, "a profile");
+    if (!text) {
+        return fail(text.error());
     }
-    if (!fs::is_regular_file(status)) {
-        return fail(name + ": not a regular file");
-    }
-    const auto size = fs::file_size(file, ec);
-    if (ec) {
-        return fail(name + ": " + ec.message());
-    }
-    if (size > kMaxFileSize) {
-        return fail(name + ": " + std::to_string(size) + " bytes is too large for a profile");
-    }
-    std::string text(static_cast<std::size_t>(size), '\0');
-    std::ifstream in(file, std::ios::binary);
-    if (!in.read(text.data(), static_cast<std::streamsize>(text.size()))) {
-        return fail(name + ": cannot be read");
-    }
-    return parse_profile(text, name);
+    return parse_profile(*text, file.string());
 }
 
 std::vector<fs::path> profile_search_path() {

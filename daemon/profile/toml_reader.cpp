@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <fstream>
 
 namespace drivebus::profile_detail {
 namespace {
@@ -280,6 +281,33 @@ std::optional<std::int64_t> key_integer(std::string_view key) {
         return std::nullopt;
     }
     return negative ? -value : value;
+}
+
+std::expected<std::string, std::string> read_small_file(const std::filesystem::path& file, std::uintmax_t max_size,
+                                                        std::string_view what) {
+    namespace fs = std::filesystem;
+    const auto name = file.string();
+    std::error_code ec;
+    const auto status = fs::status(file, ec);
+    if (ec) {
+        return std::unexpected(name + ": " + ec.message());
+    }
+    if (!fs::is_regular_file(status)) {
+        return std::unexpected(name + ": not a regular file");
+    }
+    const auto size = fs::file_size(file, ec);
+    if (ec) {
+        return std::unexpected(name + ": " + ec.message());
+    }
+    if (size > max_size) {
+        return std::unexpected(name + ": " + std::to_string(size) + " bytes is too large for " + std::string(what));
+    }
+    std::string text(static_cast<std::size_t>(size), '\0');
+    std::ifstream in(file, std::ios::binary);
+    if (!in.read(text.data(), static_cast<std::streamsize>(text.size()))) {
+        return std::unexpected(name + ": cannot be read");
+    }
+    return text;
 }
 
 }  // namespace drivebus::profile_detail

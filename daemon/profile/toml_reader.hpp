@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <expected>
+#include <filesystem>
 #include <initializer_list>
 #include <optional>
 #include <string>
@@ -78,5 +80,10 @@ private:
 [[nodiscard]] std::string number_text(double value);
 // An integer written as a TOML key ("7", "-1", "0x1875"); nullopt if the key is not one.
 [[nodiscard]] std::optional<std::int64_t> key_integer(std::string_view key);
+
+// Reads a whole regular file of at most `max_size` bytes; the error is one line naming the file
+// ("x.toml: 2000000 bytes is too large for a profile").
+std::expected<std::string, std::string> read_small_file(const std::filesystem::path& file, std::uintmax_t max_size,
+                                                        std::string_view what);
 
 }  // namespace drivebus::profile_detail

@@ -3,8 +3,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <expected>
 #include <optional>
 #include <span>
+
+#include "rtu/crc.hpp"
+#include "rtu/errors.hpp"
+#include "rtu/types.hpp"
 
 namespace drivebus::rtu::detail {
 
@@ -45,5 +50,20 @@ private:
     std::span<const std::uint8_t> bytes_;
     std::size_t pos_ = 0;
 };
+
+// The checks every received frame passes first: size within 4-256 bytes and a good CRC.
+// Returns the PDU after the function code, without the CRC.
+inline std::expected<std::span<const std::uint8_t>, DecodeError> checked_body(std::span<const std::uint8_t> frame) {
+    if (frame.size() > kMaxAduSize) {
+        return std::unexpected(DecodeError::TooLong);
+    }
+    if (frame.size() < kMinAduSize) {
+        return std::unexpected(DecodeError::TooShort);
+    }
+    if (!crc_ok(frame)) {
+        return std::unexpected(DecodeError::CrcMismatch);
+    }
+    return frame.subspan(2, frame.size() - 4);
+}
 
 }  // namespace drivebus::rtu::detail

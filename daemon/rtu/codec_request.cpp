@@ -199,18 +199,13 @@ std::expected<Adu, ValidationError> encode_request(const RequestAdu& request, co
 }
 
 std::expected<RequestAdu, DecodeError> decode_request(std::span<const std::uint8_t> frame) {
-    if (frame.size() > kMaxAduSize) {
-        return std::unexpected(DecodeError::TooLong);
-    }
-    if (frame.size() < kMinAduSize) {
-        return std::unexpected(DecodeError::TooShort);
-    }
-    if (!crc_ok(frame)) {
-        return std::unexpected(DecodeError::CrcMismatch);
+    const auto body = detail::checked_body(frame);
+    if (!body) {
+        return std::unexpected(body.error());
     }
     const std::uint8_t address = frame[0];
     const std::uint8_t function = frame[1];
-    detail::ByteReader in(frame.subspan(2, frame.size() - 4));
+    detail::ByteReader in(*body);
 
     std::expected<Request, DecodeError> pdu = std::unexpected(DecodeError::UnknownFunction);
     switch (function) {

@@ -166,18 +166,13 @@ std::size_t reply_bytes_needed(const RequestAdu& request, std::span<const std::u
 
 std::expected<ResponseAdu, DecodeError> decode_response(const RequestAdu& request,
                                                         std::span<const std::uint8_t> frame) {
-    if (frame.size() > kMaxAduSize) {
-        return std::unexpected(DecodeError::TooLong);
-    }
-    if (frame.size() < kMinAduSize) {
-        return std::unexpected(DecodeError::TooShort);
-    }
-    if (!crc_ok(frame)) {
-        return std::unexpected(DecodeError::CrcMismatch);
+    const auto body = detail::checked_body(frame);
+    if (!body) {
+        return std::unexpected(body.error());
     }
     const std::uint8_t address = frame[0];
     const std::uint8_t function = frame[1];
-    detail::ByteReader in(frame.subspan(2, frame.size() - 4));
+    detail::ByteReader in(*body);
     // Broadcasts get no reply, and no slave answers from a reserved address.
     if (address != request.address || address == kBroadcastAddress || address > kMaxUnicastAddress) {
         return std::unexpected(DecodeError::UnexpectedSlave);

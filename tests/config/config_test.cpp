@@ -4,7 +4,9 @@
 #include "config/config.hpp"
 
 #include <gtest/gtest.h>
+
 #include <unistd.h>
+#include "scratch_dir.hpp"
 
 #include <filesystem>
 #include <fstream>
@@ -112,31 +114,7 @@ Config parsed(std::string_view text, const LoadOptions& options = {}) {
     return ::testing::AssertionSuccess() << message;
 }
 
-// A fresh directory under the test temp dir, removed after the test.
-class ScratchDir {
-public:
-    ScratchDir() {
-        const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = fs::path(::testing::TempDir()) /
-                ("drivebus_config_" + std::string(test->name()) + "_" + std::to_string(::getpid()));
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~ScratchDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    ScratchDir(const ScratchDir&) = delete;
-    ScratchDir& operator=(const ScratchDir&) = delete;
-    ScratchDir(ScratchDir&&) = delete;
-    ScratchDir& operator=(ScratchDir&&) = delete;
-
-    [[nodiscard]] const fs::path& path() const { return path_; }
-    void write(const std::string& name, std::string_view text) const { std::ofstream(path_ / name) << text; }
-
-private:
-    fs::path path_;
-};
+using drivebus::test::ScratchDir;
 
 // A profile with a write-only register, which neither real profile has.
 constexpr std::string_view kWriteOnlyProfile = R"(schema = 1

@@ -114,14 +114,19 @@ SimProcess::~SimProcess() {
     }
 }
 
-int SimProcess::stop() {
-    if (pid_ < 0) {
+// SIGTERM, then the exit status (-1 if it had to be killed or was not running).
+int terminate(int& pid) {
+    if (pid < 0) {
         return -1;
     }
-    ::kill(pid_, SIGTERM);
-    const int status = wait_exit(pid_, 5s);
-    pid_ = -1;
+    ::kill(pid, SIGTERM);
+    const int status = wait_exit(pid, 5s);
+    pid = -1;
     return status;
+}
+
+int SimProcess::stop() {
+    return terminate(pid_);
 }
 
 std::string SimProcess::output() const {
@@ -169,13 +174,7 @@ Child::~Child() {
 }
 
 int Child::stop() {
-    if (pid_ < 0) {
-        return -1;
-    }
-    ::kill(pid_, SIGTERM);
-    const int status = wait_exit(pid_, 5s);
-    pid_ = -1;
-    return status;
+    return terminate(pid_);
 }
 
 std::string Child::output() const {

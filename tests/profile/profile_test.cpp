@@ -1,7 +1,9 @@
 // The profile loader: the two real profiles and the manuals' facts in them, look-ups, value
 // conversions, the search path, and one test per validation rule.
 #include <gtest/gtest.h>
+
 #include <unistd.h>
+#include "scratch_dir.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -181,31 +183,7 @@ private:
 };
 // NOLINTEND(concurrency-mt-unsafe)
 
-// A fresh directory under the test temp dir, removed after the test.
-class ScratchDir {
-public:
-    ScratchDir() {
-        const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = fs::path(::testing::TempDir()) /
-                ("drivebus_profile_" + std::string(test->name()) + "_" + std::to_string(::getpid()));
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~ScratchDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    ScratchDir(const ScratchDir&) = delete;
-    ScratchDir& operator=(const ScratchDir&) = delete;
-    ScratchDir(ScratchDir&&) = delete;
-    ScratchDir& operator=(ScratchDir&&) = delete;
-
-    [[nodiscard]] const fs::path& path() const { return path_; }
-    void write(const std::string& name, std::string_view text) const { std::ofstream(path_ / name) << text; }
-
-private:
-    fs::path path_;
-};
+using drivebus::test::ScratchDir;
 
 // ---------------------------------------------------------------------------------------------
 // The real profiles
