@@ -67,11 +67,6 @@ rtu::Instant BusEngine::line_free_at() const noexcept {
 
 void BusEngine::on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_time) {
     if (echo_.status() == EchoFilter::Status::Pending) {
-        // Auto mode: bytes that begin after the echo could have started are not an echo.
-        const rtu::Instant first = read_time - timing_.character * static_cast<std::int64_t>(bytes.size() - 1);
-        if (echo_deadline_ && first > *echo_deadline_) {
-            echo_.no_echo();
-        }
         const std::size_t used = echo_.consume(bytes);
         if (echo_.status() == EchoFilter::Status::Mismatch) {
             ++status_.counters.echo_mismatches;
@@ -79,7 +74,15 @@ void BusEngine::on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_
                 transaction_->on_echo_mismatch(read_time);
             }
         }
-        bytes = bytes.subspan(used);
+        if (echo_.status() == EchoFilter::Status::NoEcho && !echo_.replay().empty()) {
+            // Auto mode held these as a possible echo; they were the reply's first bytes.
+            rtu::Adu joined;
+            if (joined.append(echo_.replay()) && joined.append(bytes)) {
+                framer_.feed(joined.bytes(), read_time);
+                bytes = {};
+            }
+        }
+        bytes = bytes.subspan(std::min(used, bytes.size()));
     }
     if (!bytes.empty()) {
         framer_.feed(bytes, read_time);
@@ -91,10 +94,6 @@ void BusEngine::on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_
 void BusEngine::on_time(rtu::Instant now) {
     framer_.poll(now);
     take_events(now);
-    if (echo_deadline_ && now >= *echo_deadline_) {
-        echo_.no_echo();
-        echo_deadline_.reset();
-    }
     if (transaction_) {
         const auto state = transaction_->state();
         transaction_->on_time(now);
@@ -183,7 +182,7 @@ std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now) {
         return std::nullopt;
     }
     if (!transaction_) {
-        auto job = scheduler_.next(now);
+        auto job = scheduler_.next(now, !echo_.decided());
         if (!job) {
             return std::nullopt;
         }
@@ -236,11 +235,6 @@ void BusEngine::written(rtu::Instant now) {
         }
     }
     echo_.expect(transaction_->adu());
-    echo_deadline_.reset();
-    if (echo_.setting() == EchoSetting::Auto) {
-        // An echo starts while we transmit; allow the first character plus t3.5 of read latency.
-        echo_deadline_ = now + timing_.character + timing_.t3_5;
-    }
 }
 
 void BusEngine::transmitted(rtu::Instant tx_end) {
@@ -259,7 +253,6 @@ std::optional<rtu::Instant> BusEngine::next_wakeup() const {
         }
     };
     consider(framer_.deadline());
-    consider(echo_deadline_);
     // While a frame is open, its end (the framer's deadline) comes first.
     if (transaction_) {
         consider(transaction_->deadline());

@@ -75,7 +75,6 @@ private:
     std::optional<Job> job_;
     std::optional<Transaction> transaction_;
     std::optional<rtu::Instant> last_tx_end_;
-    std::optional<rtu::Instant> echo_deadline_;  // auto echo: the echo must have begun by then
     bool transmitting_ = false;
 };
 

@@ -1,14 +1,19 @@
 #include "master/echo_filter.hpp"
 
 namespace drivebus::master {
+namespace {
+constexpr std::uint8_t kWriteSingleRegister = 0x06;
+}
 
 void EchoFilter::expect(const rtu::Adu& sent) noexcept {
-    if (setting_ == EchoSetting::Off) {
+    replay_.clear();
+    matched_ = 0;
+    const bool undecidable = setting_ == EchoSetting::Auto && sent.size() > 1 && sent[1] == kWriteSingleRegister;
+    if (setting_ == EchoSetting::Off || undecidable) {
         status_ = Status::Idle;
         return;
     }
     expected_ = sent;
-    matched_ = 0;
     status_ = Status::Pending;
 }
 
@@ -16,13 +21,17 @@ std::size_t EchoFilter::consume(std::span<const std::uint8_t> bytes) noexcept {
     if (status_ != Status::Pending) {
         return 0;
     }
+    const std::size_t before = matched_;
     std::size_t used = 0;
     while (used < bytes.size() && matched_ < expected_.size()) {
         if (bytes[used] != expected_[matched_]) {
-            if (setting_ == EchoSetting::Auto && matched_ == 0) {
-                // The first byte heard is not our first byte: this adapter does not echo.
+            if (setting_ == EchoSetting::Auto) {
+                // Not an echo but the reply: give back what was held from earlier reads; the
+                // bytes of this read are not consumed.
                 setting_ = EchoSetting::Off;
-                status_ = Status::Idle;
+                status_ = Status::NoEcho;
+                replay_.clear();
+                (void)replay_.append(expected_.bytes().first(before));
                 return 0;
             }
             status_ = Status::Mismatch;
@@ -38,13 +47,6 @@ std::size_t EchoFilter::consume(std::span<const std::uint8_t> bytes) noexcept {
         }
     }
     return used;
-}
-
-void EchoFilter::no_echo() noexcept {
-    if (status_ == Status::Pending && matched_ == 0 && setting_ == EchoSetting::Auto) {
-        setting_ = EchoSetting::Off;
-        status_ = Status::Idle;
-    }
 }
 
 }  // namespace drivebus::master

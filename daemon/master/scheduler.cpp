@@ -137,15 +137,21 @@ std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
     return {};
 }
 
-std::optional<Job> Scheduler::next(rtu::Instant now) {
+std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
     if (!line_up_) {
         return std::nullopt;
     }
-    if (auto job = next_setup()) {
-        return job;
-    }
-    if (auto job = next_client()) {
-        return job;
+    if (reads_only) {
+        if (auto job = next_client_read()) {
+            return job;
+        }
+    } else {
+        if (auto job = next_setup()) {
+            return job;
+        }
+        if (auto job = next_client()) {
+            return job;
+        }
     }
     if (auto job = next_poll(now)) {
         return job;
@@ -153,11 +159,37 @@ std::optional<Job> Scheduler::next(rtu::Instant now) {
     if (auto job = next_keep_alive(now)) {
         return job;
     }
-    return next_probe(now);
+    if (auto job = next_probe(now)) {
+        return job;
+    }
+    // Writes are waiting and no read is due: read something now so that the echo decides.
+    if (const auto due = next_due(); reads_only && due && *due <= now) {
+        for (std::size_t d = 0; d < drives_.size(); ++d) {
+            if (drives_[d].health == Health::Absent) {
+                continue;
+            }
+            if (const auto reg = keep_alive_register(*drives_[d].config)) {
+                Job job;
+                job.kind = JobKind::KeepAlive;
+                job.drive = d;
+                job.request = {drives_[d].config->address, rtu::ReadHoldingRegisters{*reg, 1}};
+                return job;
+            }
+        }
+    }
+    return std::nullopt;
+}
+
+std::optional<Job> Scheduler::next_client_read() {
+    return take_client({&reads_});
 }
 
 std::optional<Job> Scheduler::next_client() {
-    for (auto* queues : {&writes_, &reads_}) {
+    return take_client({&writes_, &reads_});
+}
+
+std::optional<Job> Scheduler::take_client(std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order) {
+    for (auto* queues : order) {
         if (queues->empty()) {
             continue;
         }

@@ -54,8 +54,9 @@ public:
 
     // A client request; validated by the caller. Rejected when the queue is full.
     std::expected<void, SubmitError> submit(ClientRequest request);
-    // The job to send now, if any.
-    [[nodiscard]] std::optional<Job> next(rtu::Instant now);
+    // The job to send now, if any. With `reads_only`, writes wait (set-up and client writes):
+    // a read's echo tells whether the adapter echoes, a write's (FC06) may not.
+    [[nodiscard]] std::optional<Job> next(rtu::Instant now, bool reads_only = false);
     // When next() may have something, if nothing is due now.
     [[nodiscard]] std::optional<rtu::Instant> next_due() const;
     // A job finished (the bus runs one at a time: next() is asked only between jobs).
@@ -98,6 +99,9 @@ private:
     };
 
     [[nodiscard]] std::optional<Job> next_client();
+    [[nodiscard]] std::optional<Job> next_client_read();
+    [[nodiscard]] std::optional<Job> take_client(
+        std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order);
     [[nodiscard]] std::optional<Job> next_setup();
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_keep_alive(rtu::Instant now);

