@@ -56,7 +56,7 @@ std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops)
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run_main(int argc, char** argv) {
     std::string config_path;
     std::string profile_dir;
     bool check_only = false;
@@ -169,4 +169,15 @@ int main(int argc, char** argv) {
     }
     log::notice("stopped: " + status_line(loops));
     return 0;
+}
+
+int main(int argc, char** argv) {
+    // Exceptions only come from building objects at start-up (an epoll or timerfd the kernel
+    // refuses); they end the program with one line, not an abort.
+    try {
+        return run_main(argc, argv);
+    } catch (const std::exception& e) {
+        std::cerr << "drivebusd: " << e.what() << '\n';
+        return 1;
+    }
 }

@@ -337,7 +337,7 @@ int run(const Options& o) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run_main(int argc, char** argv) {
     Options o;
     CLI::App app{"drivebus-sim: simulated Altivar 21 and Altivar 58 drives on a serial line"};
     auto* link = app.add_option("--link", o.link, "make a pty and a symlink PATH to the side a master opens");
@@ -372,4 +372,15 @@ int main(int argc, char** argv) {
         return kExitUsage;
     }
     return run(o);
+}
+
+int main(int argc, char** argv) {
+    // Exceptions only come from building objects at start-up (an epoll or timerfd the kernel
+    // refuses); they end the program with one line, not an abort.
+    try {
+        return run_main(argc, argv);
+    } catch (const std::exception& e) {
+        std::cerr << "drivebus-sim: " << e.what() << '\n';
+        return 1;
+    }
 }
