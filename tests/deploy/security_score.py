@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""`systemd-analyze security --offline=yes` of a drivebus unit: fail above a maximum exposure,
+and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlockall, the
+serial and GPIO devices, /tmp and /dev/shm for iceoryx), so the score cannot be bought by
+breaking the daemon.
+
+usage: security_score.py SYSTEMD_ANALYZE UNIT MAX_EXPOSURE
+"""
+import re
+import subprocess
+import sys
+
+
+def settings(path):
+    """Each key of [Service] with its values, in order."""
+    values, section = {}, None
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            line = line.strip()
+            if not line or line[0] in "#;":
+                continue
+            if line.startswith("["):
+                section = line
+                continue
+            if section == "[Service]" and "=" in line:
+                key, value = line.split("=", 1)
+                values.setdefault(key.strip(), []).append(value.strip())
+    return values
+
+
+def needs(unit):
+    s = settings(unit)
+    last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
+    words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
+    problems = []
+    for cap in ("CAP_SYS_NICE", "CAP_IPC_LOCK"):
+        if cap not in words("AmbientCapabilities") or cap not in words("CapabilityBoundingSet"):
+            problems.append(f"{cap} missing from AmbientCapabilities= or CapabilityBoundingSet=")
+    if last("RestrictRealtime") not in ("", "no", "false", "0"):
+        problems.append("RestrictRealtime= must stay off (SCHED_FIFO)")
+    if last("PrivateDevices") in ("yes", "true", "1"):
+        problems.append("PrivateDevices=yes hides the serial ports")
+    if last("PrivateTmp") in ("yes", "true", "1"):
+        problems.append("PrivateTmp=yes hides the iceoryx sockets in /tmp from clients")
+    if last("PrivateUsers") in ("yes", "true", "1"):
+        problems.append("PrivateUsers=yes voids CAP_SYS_NICE and CAP_IPC_LOCK on the host")
+    allowed = [v.split()[0] for v in s.get("DeviceAllow", []) if v.split()]
+    if last("DevicePolicy") in ("closed", "strict"):
+        for dev in ("char-ttyS", "char-ttyUSB", "char-ttyACM", "char-gpiochip"):
+            if dev not in allowed:
+                problems.append(f"DeviceAllow={dev} rw missing under DevicePolicy={last('DevicePolicy')}")
+    for group in ("@resources", "@memlock"):
+        for value in s.get("SystemCallFilter", []):
+            if value.startswith("~") and group in value[1:].split():
+                problems.append(f"SystemCallFilter= denies {group} (sched_setscheduler, mlockall)")
+    if last("ProtectSystem") == "strict":
+        rw = words("ReadWritePaths")
+        for path in ("/tmp", "/dev/shm"):
+            if path not in rw and "-" + path not in rw:
+                problems.append(f"ProtectSystem=strict without ReadWritePaths={path}")
+    return problems
+
+
+def main(argv):
+    if len(argv) != 4:
+        print(__doc__.strip().splitlines()[-1], file=sys.stderr)
+        return 2
+    analyze, unit, limit = argv[1], argv[2], float(argv[3])
+    proc = subprocess.run([analyze, "security", "--offline=yes", "--no-pager", unit],
+                          capture_output=True, text=True, check=False)
+    out = proc.stdout + proc.stderr
+    m = re.search(r"Overall exposure level for \S+: (\d+(?:\.\d+)?)", out)
+    if not m:
+        print(out)
+        print(f"{unit}: no 'Overall exposure level' in the output of systemd-analyze security (exit {proc.returncode})")
+        return 1
+    score = float(m.group(1))
+    problems = needs(unit)
+    for p in problems:
+        print(f"{unit}: {p}")
+    if score > limit:
+        print("\n".join(line for line in out.splitlines() if line.startswith("\u2717")))
+        print(f"{unit}: exposure {score} > {limit}")
+        return 1
+    print(f"{unit}: exposure {score} <= {limit}")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
