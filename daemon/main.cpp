@@ -155,8 +155,25 @@ int run_main(int argc, char** argv) {
             }
         }
     });
+    // The service watchdog (WatchdogSec=) is fed only while every bus loop keeps going round:
+    // a stuck loop stops the feeding and systemd restarts the service.
+    std::uint64_t watchdog_usec = 0;
+    const bool watchdog = sd_watchdog_enabled(0, &watchdog_usec) > 0;
+    std::vector<std::uint64_t> heartbeats(loops.size(), 0);
     loop.add(status_timer.fd(), [&] {
         status_timer.acknowledge();
+        bool alive = true;
+        for (std::size_t i = 0; i < loops.size(); ++i) {
+            const std::uint64_t beat = loops[i]->heartbeat();
+            if (beat == heartbeats[i]) {
+                alive = false;
+                log::error("bus " + loops[i]->config().name + ": its event loop has not run for a second");
+            }
+            heartbeats[i] = beat;
+        }
+        if (watchdog && alive) {
+            sd_notify(0, "WATCHDOG=1");
+        }
         sd_notifyf(0, "STATUS=%s", status_line(loops).c_str());
         status_timer.arm(sys::now() + std::chrono::seconds(1));
     });

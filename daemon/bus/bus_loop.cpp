@@ -271,12 +271,13 @@ private:
         if (!port_) {
             consider(reopen_at_);
         }
-        if (wake) {
-            timer_.arm(*wake);
-        } else {
-            timer_.disarm();
-        }
+        // The loop goes round at least this often, so that its heartbeat shows it is alive
+        // even on a quiet bus (the service watchdog watches it).
+        consider(sys::now() + kLivenessTick);
+        timer_.arm(*wake);
     }
+
+    static constexpr rtu::Duration kLivenessTick = std::chrono::milliseconds(500);
 
     void publish_status() {
         const std::lock_guard lock(mutex_);

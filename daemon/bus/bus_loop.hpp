@@ -40,7 +40,8 @@ public:
     std::expected<void, master::SubmitError> submit(master::ClientRequest request);
     // Thread-safe copy of the bus status.
     [[nodiscard]] master::BusStatus status() const;
-    // How often the loop has gone round (a watchdog can check it moves).
+    // How often the loop has gone round: at least twice a second while it is alive, so a
+    // watchdog can check it moves.
     [[nodiscard]] std::uint64_t heartbeat() const noexcept { return heartbeat_.load(); }
     [[nodiscard]] const config::BusConfig& config() const noexcept { return bus_; }
 

@@ -2,15 +2,23 @@
 // one line naming the problem, and exit code 78; nothing is opened.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
 #include "sim_process.hpp"
+#include "sys/posix.hpp"
 
 namespace drivebus::test {
 namespace {
 
 namespace fs = std::filesystem;
+using namespace std::chrono_literals;
 
 struct BadConfig {
     const char* name;
@@ -107,6 +115,42 @@ TEST_F(DrivebusdCli, MissingFileAndBadArguments) {
     const auto [status2, out2] = run_program({DRIVEBUSD_PATH, "--check-config"});
     EXPECT_EQ(status2, 2) << out2;
     EXPECT_NE(out2.find("--config"), std::string::npos) << out2;
+}
+
+TEST_F(DrivebusdCli, TellsSystemdItIsReadyAndFeedsTheWatchdog) {
+    SimProcess sim({"--drive", "1:atv21"});
+    const std::string config = with("/dev/ttyDOESNOTEXIST", sim.link().string());
+    std::ofstream(dir / "run.toml") << config;
+
+    // A notification socket standing in for systemd's.
+    const fs::path socket_path = dir / "notify";
+    sys::UniqueFd sock(::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, socket_path.c_str(), sizeof addr.sun_path - 1);
+    ASSERT_EQ(::bind(sock.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
+    ::setenv("NOTIFY_SOCKET", socket_path.c_str(), 1);
+    ::setenv("WATCHDOG_USEC", "2000000", 1);
+    Child daemon({DRIVEBUSD_PATH, "--config", (dir / "run.toml").string()});
+    ::unsetenv("NOTIFY_SOCKET");
+    ::unsetenv("WATCHDOG_USEC");
+
+    std::string received;
+    auto got = [&](std::string_view what) {
+        std::array<char, 512> buffer{};
+        for (;;) {
+            const auto n = ::recv(sock.get(), buffer.data(), buffer.size(), 0);
+            if (n <= 0) {
+                break;
+            }
+            received.append(buffer.data(), static_cast<std::size_t>(n)).push_back('\n');
+        }
+        return received.find(what) != std::string::npos;
+    };
+    EXPECT_TRUE(wait_until([&] { return got("READY=1"); }, 10s)) << received << daemon.output();
+    EXPECT_TRUE(wait_until([&] { return got("STATUS=line1 up"); }, 10s)) << received;
+    EXPECT_TRUE(wait_until([&] { return got("WATCHDOG=1"); }, 10s)) << received;
+    EXPECT_EQ(daemon.stop(), 0) << daemon.output();
 }
 
 }  // namespace
