@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include "one_line_error.hpp"
 #include "scratch_dir.hpp"
 
 #include <filesystem>
@@ -99,19 +100,7 @@ Config parsed(std::string_view text, const LoadOptions& options = {}) {
     if (config) {
         return ::testing::AssertionFailure() << "parsed without error";
     }
-    const std::string& message = config.error().message;
-    if (!message.starts_with("test.toml: ")) {
-        return ::testing::AssertionFailure() << "does not start with the file name: " << message;
-    }
-    if (message.find('\n') != std::string::npos) {
-        return ::testing::AssertionFailure() << "more than one line: " << message;
-    }
-    for (const auto part : parts) {
-        if (message.find(part) == std::string::npos) {
-            return ::testing::AssertionFailure() << "'" << part << "' missing from: " << message;
-        }
-    }
-    return ::testing::AssertionSuccess() << message;
+    return drivebus::test::one_line_error(config.error().message, "test.toml", parts);
 }
 
 using drivebus::test::ScratchDir;

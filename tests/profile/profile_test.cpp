@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include "one_line_error.hpp"
 #include "scratch_dir.hpp"
 
 #include <algorithm>
@@ -136,19 +137,7 @@ std::string edited(std::string_view from, std::string_view to) {
     if (profile) {
         return ::testing::AssertionFailure() << "parsed without error";
     }
-    const std::string& message = profile.error().message;
-    if (!message.starts_with("test.toml: ")) {
-        return ::testing::AssertionFailure() << "does not start with the file name: " << message;
-    }
-    if (message.find('\n') != std::string::npos) {
-        return ::testing::AssertionFailure() << "more than one line: " << message;
-    }
-    for (const auto part : parts) {
-        if (message.find(part) == std::string::npos) {
-            return ::testing::AssertionFailure() << "'" << part << "' missing from: " << message;
-        }
-    }
-    return ::testing::AssertionSuccess() << message;
+    return drivebus::test::one_line_error(profile.error().message, "test.toml", parts);
 }
 
 // Sets an environment variable for one test and restores it after. Tests run single-threaded.
