@@ -19,6 +19,8 @@
 #include "bus/bus_loop.hpp"
 #include "config/config.hpp"
 #include "drivebus/version.hpp"
+#include "ipc/bus_service.hpp"
+#include "ipc/host.hpp"
 #include "log/log.hpp"
 #include "rt/realtime.hpp"
 #include "serial/termios.hpp"
@@ -41,15 +43,19 @@ std::string describe(const config::Config& c) {
            (drives == 1 ? " drive" : " drives");
 }
 
-std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops) {
+// For systemd's STATUS=: "line1 up, 2/2 drives online, 1234 replies, 0 timeouts".
+std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops,
+                        const std::vector<std::unique_ptr<ipc::BusService>>& services) {
     std::string out;
-    for (const auto& loop : loops) {
-        const auto s = loop->status();
+    for (std::size_t i = 0; i < loops.size(); ++i) {
+        const auto s = loops[i]->status();
         if (!out.empty()) {
             out += "; ";
         }
-        out += loop->config().name + (s.up ? " up" : " down") + ", " + std::to_string(s.counters.replies) +
-               " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
+        out += loops[i]->config().name + (s.up ? " up" : " down") + ", " +
+               std::to_string(i < services.size() ? services[i]->drives_online() : 0) + "/" +
+               std::to_string(loops[i]->config().drives.size()) + " drives online, " +
+               std::to_string(s.counters.replies) + " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
     }
     return out;
 }
@@ -113,12 +119,33 @@ int run_main(int argc, char** argv) {
         }
     }
 
+    auto ipc_host = ipc::Host::start(*config, "drivebusd-" + std::to_string(::getpid()));
+    if (!ipc_host) {
+        log::error(ipc_host.error());
+        return kExitStartup;
+    }
+    for (const auto& b : config->buses) {
+        if (const auto pid = ipc::bus_served_elsewhere(b.name)) {
+            log::error("bus " + b.name + " is already served by another drivebusd (pid " + std::to_string(*pid) +
+                       "); stop it first, or give this bus another name");
+            return kExitStartup;
+        }
+    }
+    log::notice("shared memory: " + (*ipc_host)->describe());
+
+    std::vector<std::unique_ptr<ipc::BusService>> services;
     std::vector<std::unique_ptr<bus::BusLoop>> loops;
     for (const auto& b : config->buses) {
+        auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout());
         master::EngineCallbacks callbacks;
+        callbacks.client_result = [svc = service.get()](std::uint64_t correlation, const master::Result& result) {
+            svc->on_result(correlation, result);
+        };
         // Runs on the bus thread: the map is that thread's alone.
         callbacks.snapshot = [name = b.name, health = std::map<std::string, master::Health>{},
-                              limiter = std::make_shared<log::RateLimited>()](const master::DriveSnapshot& s) mutable {
+                              limiter = std::make_shared<log::RateLimited>(),
+                              svc = service.get()](const master::DriveSnapshot& s) mutable {
+            svc->on_snapshot(s);
             auto& last = health[s.name];
             if (s.health == last) {
                 return;
@@ -140,7 +167,9 @@ int run_main(int argc, char** argv) {
         }
         log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
                     std::to_string(b.drives.size()) + " drives");
+        service->start(*loop);
         loops.push_back(std::move(loop));
+        services.push_back(std::move(service));
     }
     log::notice(std::string("drivebusd ") + DRIVEBUS_VERSION_STRING + " running: " + describe(*config));
     sd_notify(0, "READY=1");
@@ -174,17 +203,20 @@ int run_main(int argc, char** argv) {
         if (watchdog && alive) {
             sd_notify(0, "WATCHDOG=1");
         }
-        sd_notifyf(0, "STATUS=%s", status_line(loops).c_str());
+        sd_notifyf(0, "STATUS=%s", status_line(loops, services).c_str());
         status_timer.arm(sys::now() + std::chrono::seconds(1));
     });
     status_timer.arm(sys::now() + std::chrono::seconds(1));
     (void)loop.run();
 
     sd_notify(0, "STOPPING=1");
+    for (auto& s : services) {
+        s->stop();
+    }
     for (auto& l : loops) {
         l->stop();
     }
-    log::notice("stopped: " + status_line(loops));
+    log::notice("stopped: " + status_line(loops, services));
     return 0;
 }
 

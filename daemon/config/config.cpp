@@ -18,6 +18,7 @@ namespace fs = std::filesystem;
 constexpr std::uintmax_t kMaxFileSize = 1U << 20;  // a configuration is a few KiB
 
 constexpr std::array<std::string_view, 3> kRealtimeModes = {"off", "best-effort", "required"};
+constexpr std::array<std::string_view, 3> kRouDiModes = {"auto", "embedded", "external"};
 
 std::unexpected<ConfigError> fail(std::string message) {
     return std::unexpected(ConfigError{std::move(message)});
@@ -85,6 +86,40 @@ RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
     return realtime;
 }
 
+IpcConfig read_ipc(const toml::table& table, Errors& errors) {
+    Section s(table, "ipc", errors);
+    s.allow_only({"roudi", "watch_group", "control_group", "daemon_group", "max_clients"});
+    IpcConfig ipc;
+    if (const auto mode = choice(s, "roudi", kRouDiModes)) {
+        static constexpr std::array<RouDiMode, 3> kValues = {RouDiMode::Auto, RouDiMode::Embedded,
+                                                             RouDiMode::External};
+        ipc.roudi = kValues.at(*mode);
+    }
+    const auto group = [&](std::string_view key, std::string& out) {
+        if (auto name = s.string(key)) {
+            // POSIX portable user and group names, as useradd takes them.
+            const bool ok = !name->empty() && name->size() < 32 && (*name)[0] != '-' &&
+                            std::ranges::all_of(*name, [](char c) {
+                                return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                                       c == '_' || c == '-' || c == '.';
+                            });
+            if (!ok) {
+                s.fail(std::string(key) + " " + in_quotes(*name) + " is not a valid group name");
+            }
+            out = std::move(*name);
+        }
+    };
+    group("watch_group", ipc.watch_group);
+    group("control_group", ipc.control_group);
+    group("daemon_group", ipc.daemon_group);
+    if (ipc.daemon_group == ipc.watch_group || ipc.daemon_group == ipc.control_group ||
+        ipc.watch_group == ipc.control_group) {
+        s.fail("watch_group, control_group and daemon_group must be three different groups");
+    }
+    ipc.max_clients = static_cast<std::size_t>(s.integer("max_clients", 1, 200).value_or(32));
+    return ipc;
+}
+
 }  // namespace detail
 
 std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
@@ -97,11 +132,14 @@ std::expected<Config, ConfigError> parse_config(std::string_view text, std::stri
     }
     detail::Errors errors(source);
     detail::Section s(root, "", errors);
-    s.allow_only({"realtime", "bus"});
+    s.allow_only({"realtime", "ipc", "bus"});
     Config config;
     config.source = fs::path(source);
     if (const auto* realtime = s.table("realtime")) {
         config.realtime = detail::read_realtime(*realtime, errors);
+    }
+    if (const auto* ipc = s.table("ipc")) {
+        config.ipc = detail::read_ipc(*ipc, errors);
     }
     read_buses(s, errors, options, config);
     if (errors.any()) {
@@ -116,6 +154,19 @@ std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadO
         return fail(text.error());
     }
     return parse_config(*text, file.string(), options);
+}
+
+std::string_view to_string(LeaseFallback fallback) noexcept {
+    switch (fallback) {
+    case LeaseFallback::Hold: return "hold";
+    case LeaseFallback::Stop: return "stop";
+    case LeaseFallback::Freewheel: return "freewheel";
+    }
+    return "?";
+}
+
+std::string_view to_string(RouDiMode mode) noexcept {
+    return kRouDiModes.at(static_cast<std::size_t>(mode));
 }
 
 std::string_view to_string(DirectionMode mode) noexcept {

@@ -37,6 +37,8 @@ struct PollGroup {
     bool indirect = false;
 };
 
+enum class LeaseFallback : std::uint8_t { Hold, Stop, Freewheel };
+
 struct DriveConfig {
     std::string name;                         // unique on the bus
     std::uint8_t address = 1;
@@ -45,6 +47,10 @@ struct DriveConfig {
     // A request at least this often even when nothing polls the drive, so that it stays
     // inside its Modbus time-out (ATV21 F803). Absent: off.
     std::optional<Duration> keep_alive;
+    // A client that writes the profile's command or reference holds the drive's control lease
+    // and must renew it within `lease`; when it does not, drivebusd applies `fallback`.
+    Duration lease = std::chrono::seconds(1);
+    LeaseFallback fallback = LeaseFallback::Hold;
 };
 
 struct BusConfig {
@@ -76,8 +82,21 @@ struct RealtimeConfig {
     bool lock_memory = true;      // mlockall(MCL_CURRENT | MCL_FUTURE)
 };
 
+enum class RouDiMode : std::uint8_t { Auto, Embedded, External };
+
+// The iceoryx side: where RouDi runs, and the Unix groups that decide who may watch (subscribe)
+// and who may send requests, enforced by RouDi's shared-memory segments.
+struct IpcConfig {
+    RouDiMode roudi = RouDiMode::Auto;
+    std::string watch_group = "drivebus";            // read the daemon's publications
+    std::string control_group = "drivebus-control";  // send requests
+    std::string daemon_group = "drivebusd";          // drivebusd alone: writes the publications
+    std::size_t max_clients = 32;                    // sizes the shared memory
+};
+
 struct Config {
     std::filesystem::path source;
+    IpcConfig ipc;
     std::vector<BusConfig> buses;
     RealtimeConfig realtime;
 };
@@ -101,5 +120,7 @@ struct LoadOptions {
 // "kernel", "gpio", ...
 [[nodiscard]] std::string_view to_string(DirectionMode mode) noexcept;
 [[nodiscard]] std::string_view to_string(EchoMode mode) noexcept;
+[[nodiscard]] std::string_view to_string(LeaseFallback fallback) noexcept;
+[[nodiscard]] std::string_view to_string(RouDiMode mode) noexcept;
 
 }  // namespace drivebus::config

@@ -63,6 +63,27 @@ std::optional<Duration> read_keep_alive(Section& s, const toml::table& table) {
     return duration(s, table, "keep_alive", 10ms, 1h);
 }
 
+// The fallback needs the profile's command word for it; without "fallback", a drive whose
+// profile can stop it stops, others hold.
+void read_lease(Section& s, const toml::table& table, DriveConfig& drive) {
+    drive.lease = duration(s, table, "lease", 100ms, 1h).value_or(drive.lease);
+    const ControlInfo* control = drive.profile && drive.profile->control ? &*drive.profile->control : nullptr;
+    static constexpr std::array<std::string_view, 3> kNames = {"hold", "stop", "freewheel"};
+    if (const auto which = choice(s, "fallback", kNames)) {
+        drive.fallback = static_cast<LeaseFallback>(*which);
+        const bool stop_missing = drive.fallback == LeaseFallback::Stop && (control == nullptr || !control->stop);
+        const bool coast_missing =
+            drive.fallback == LeaseFallback::Freewheel && (control == nullptr || !control->freewheel);
+        if (drive.profile && (stop_missing || coast_missing)) {
+            s.fail("fallback \"" + std::string(kNames.at(*which)) + "\" needs a " + std::string(kNames.at(*which)) +
+                   " command word, which profile " + in_quotes(drive.profile->type) +
+                   " does not define (use \"hold\")");
+        }
+    } else if (control != nullptr && control->stop) {
+        drive.fallback = LeaseFallback::Stop;
+    }
+}
+
 }  // namespace
 
 DriveConfig read_drive(const toml::table& table, std::size_t index, const std::string& bus,
@@ -71,7 +92,7 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
     if (const auto* name = table.get_as<std::string>("name"); name != nullptr && valid_name(name->get())) {
         s.rename(bus + " drive " + in_quotes(name->get()));
     }
-    s.allow_only({"name", "address", "profile", "keep_alive", "poll"});
+    s.allow_only({"name", "address", "profile", "keep_alive", "lease", "fallback", "poll"});
     DriveConfig drive;
     if (auto name = s.string("name", Need::Required)) {
         if (!valid_name(*name)) {
@@ -103,6 +124,7 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
         check_line(s, *drive.profile, format);
     }
     drive.keep_alive = read_keep_alive(s, table);
+    read_lease(s, table, drive);
     const auto polls = s.tables("poll");
     std::set<std::string, std::less<>> names;
     for (std::size_t i = 0; i < polls.size(); ++i) {

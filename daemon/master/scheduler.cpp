@@ -122,6 +122,9 @@ std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
     job.request = request.request;
     if (request.request.address == rtu::kBroadcastAddress) {
         job.drive = kNoDrive;
+    } else if (request.probe) {
+        job.drive = kNoDrive;  // no drive's counters or health: it may not be configured
+        job.retries = 0;
     } else if (const auto d = drive_at(request.request.address)) {
         job.drive = *d;
     } else {

@@ -32,6 +32,8 @@ struct ClientRequest {
     std::uint64_t client = 0;       // who asked (for fairness)
     std::uint64_t correlation = 0;  // echoed in the result
     rtu::RequestAdu request;
+    // A probe (drivebusctl scan): any address, configured or not, tried once.
+    bool probe = false;
 };
 
 struct Job {

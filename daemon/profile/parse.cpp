@@ -35,7 +35,8 @@ ProfileError syntax_error(std::string_view source, const toml::parse_error& e) {
 
 void read_tables(const toml::table& root, Errors& errors, Profile& profile) {
     Section s(root, "", errors);
-    s.allow_only({"schema", "drive", "functions", "identification", "indirect_block", "register", "fault_code"});
+    s.allow_only({"schema", "drive", "functions", "identification", "indirect_block", "register", "fault_code",
+                  "control"});
     const auto schema = s.integer("schema", std::numeric_limits<std::int64_t>::min(),
                                   std::numeric_limits<std::int64_t>::max(), Need::Required);
     if (schema && *schema != 1) {
@@ -52,6 +53,9 @@ void read_tables(const toml::table& root, Errors& errors, Profile& profile) {
         if (!profile.functions.device_identification) {
             errors.add("identification", "present, but functions.device_identification is not true");
         }
+    }
+    if (const auto* control = s.table("control")) {
+        profile_detail::read_control(*control, errors, profile.control.emplace());
     }
     const auto registers = s.tables("register");
     for (std::size_t i = 0; i < registers.size(); ++i) {
@@ -92,6 +96,38 @@ void check_fault_codes(const Profile& profile, Errors& errors) {
             errors.add("fault_code " + std::to_string(code),
                        "code " + std::to_string(code) + " is also " + entry_name("fault_code", it->second));
         }
+    }
+}
+
+// The control section names registers of the profile, in their spelling; the command and
+// reference registers must be writable.
+void check_control(Profile& profile, Errors& errors) {
+    if (!profile.control) {
+        return;
+    }
+    auto& c = *profile.control;
+    const auto fix = [&](std::string& name, std::string_view key, bool must_write) {
+        if (name.empty()) {
+            return;
+        }
+        const auto* r = profile.find(name);
+        if (r == nullptr) {
+            errors.add("control", std::string(key) + " " + in_quotes(name) + " is not a register of this profile");
+            return;
+        }
+        if (must_write && !writable(r->access)) {
+            errors.add("control", std::string(key) + " " + in_quotes(name) + " is not writable");
+        }
+        name = r->name;
+    };
+    fix(c.command, "command", true);
+    fix(c.reference, "reference", true);
+    fix(c.status, "status", false);
+    fix(c.output_frequency, "output_frequency", false);
+    fix(c.fault, "fault", false);
+    fix(c.alarm, "alarm", false);
+    for (auto& name : c.lease_registers) {
+        fix(name, "lease_registers", true);
     }
 }
 
@@ -142,6 +178,7 @@ std::expected<Profile, ProfileError> parse_profile(std::string_view text, std::s
         check_registers(profile, errors);
         check_fault_codes(profile, errors);
         check_blocks(profile, errors);
+        check_control(profile, errors);
     }
     if (errors.any()) {
         return std::unexpected(errors.error());

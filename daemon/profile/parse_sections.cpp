@@ -187,6 +187,44 @@ void read_identification(const toml::table& table, Errors& errors, Identificatio
     identification.revision = s.string("revision").value_or("");
 }
 
+void read_control(const toml::table& table, Errors& errors, ControlInfo& control) {
+    Section s(table, "control", errors);
+    s.allow_only({"lease_registers", "command", "reference", "status", "output_frequency", "fault", "alarm",
+                  "run_forward", "run_reverse", "stop", "freewheel", "fault_reset", "status_bits"});
+    control.lease_registers = s.strings("lease_registers").value_or(std::vector<std::string>{});
+    control.command = s.string("command").value_or("");
+    control.reference = s.string("reference").value_or("");
+    control.status = s.string("status").value_or("");
+    control.output_frequency = s.string("output_frequency").value_or("");
+    control.fault = s.string("fault").value_or("");
+    control.alarm = s.string("alarm").value_or("");
+    const auto word = [&](std::string_view key) -> std::optional<std::uint16_t> {
+        if (const auto v = s.integer(key, 0, 0xFFFF)) {
+            return static_cast<std::uint16_t>(*v);
+        }
+        return std::nullopt;
+    };
+    control.run_forward = word("run_forward");
+    control.run_reverse = word("run_reverse");
+    control.stop = word("stop");
+    control.freewheel = word("freewheel");
+    control.fault_reset = word("fault_reset");
+    if (const auto* bits = s.table("status_bits")) {
+        Section b(*bits, "control.status_bits", errors);
+        b.allow_only({"running", "reverse", "fault", "alarm", "ready"});
+        for (const auto* key : {"running", "reverse", "fault", "alarm", "ready"}) {
+            if (const auto v = b.integer(key, 0, 15)) {
+                control.status_bits[key] = static_cast<unsigned>(*v);
+            }
+        }
+    }
+    const bool has_word = control.run_forward || control.run_reverse || control.stop || control.freewheel ||
+                          control.fault_reset;
+    if (has_word && control.command.empty()) {
+        s.fail("command word values are given, but no command register");
+    }
+}
+
 RegisterInfo read_register(const toml::table& table, std::size_t index, Errors& errors) {
     Section s(table, entry_name("register", index), errors);
     if (const auto* name = table.get_as<std::string>("name"); name != nullptr && valid_register_name(name->get())) {

@@ -13,6 +13,7 @@ namespace drivebus::profile_detail {
 
 void read_drive(const toml::table& table, Errors& errors, Profile& profile);
 void read_functions(const toml::table& table, Errors& errors, FunctionSupport& functions);
+void read_control(const toml::table& table, Errors& errors, ControlInfo& control);
 void read_identification(const toml::table& table, Errors& errors, Identification& identification);
 // `index` counts from 0 and names an entry in errors until its name (or code) is known.
 [[nodiscard]] RegisterInfo read_register(const toml::table& table, std::size_t index, Errors& errors);

@@ -80,6 +80,26 @@ struct FaultCode {
     std::string title;
 };
 
+// How a drive is commanded: which registers a client's control lease covers, the command
+// word values of the Altivar helpers and of the lease fallback, and where the state is read.
+struct ControlInfo {
+    std::vector<std::string> lease_registers;  // command and reference: writing one takes the lease
+    std::string command;                       // the command word register ("FA00")
+    std::string reference;                     // the frequency reference register ("FA01")
+    std::string status;                        // the status word register ("FD01")
+    std::string output_frequency;              // ("FD00")
+    std::string fault;                         // present fault code ("FC90")
+    std::string alarm;                         // alarm bits ("FC91")
+    // Command word values.
+    std::optional<std::uint16_t> run_forward;
+    std::optional<std::uint16_t> run_reverse;
+    std::optional<std::uint16_t> stop;       // ramp stop
+    std::optional<std::uint16_t> freewheel;  // coast
+    std::optional<std::uint16_t> fault_reset;
+    // Status word bits: "running", "reverse", "fault", "alarm", "ready".
+    std::map<std::string, unsigned> status_bits;
+};
+
 struct Profile {
     int schema = 1;
     std::string type;   // "atv21"
@@ -98,6 +118,7 @@ struct Profile {
     std::vector<IndirectBlock> indirect_blocks;
     std::vector<RegisterInfo> registers;
     std::vector<FaultCode> fault_codes;
+    std::optional<ControlInfo> control;
 
     // Look-ups. Names match case-insensitively ("fa01" finds FA01).
     [[nodiscard]] const RegisterInfo* find(std::string_view name) const noexcept;

@@ -1,0 +1,87 @@
+// The state behind a Bus: iceoryx ports, the listener thread that takes samples and responses,
+// requests waiting for their response, and the leases this process renews.
+#pragma once
+
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <unordered_map>
+
+#include "drivebus/client.hpp"
+#include "iceoryx_posh/popo/listener.hpp"
+#include "iceoryx_posh/popo/subscriber.hpp"
+#include "iceoryx_posh/popo/untyped_client.hpp"
+
+namespace drivebus {
+
+struct DriveFeed {
+    std::string name;
+    std::uint8_t address = 0;
+    std::shared_ptr<const Profile> profile;
+    std::unique_ptr<iox::popo::Subscriber<shm::DriveSnapshot>> subscriber;
+    std::optional<shm::DriveSnapshot> last;  // guarded by Bus::Impl::mutex
+    std::map<std::uint64_t, std::function<void(const shm::DriveSnapshot&)>> callbacks;
+    struct Context {
+        Bus::Impl* impl = nullptr;
+        DriveFeed* feed = nullptr;
+    } context;
+};
+
+struct Lease {
+    std::chrono::milliseconds length{0};
+    Clock::time_point renewed{};
+    bool renewing = true;
+};
+
+struct Bus::Impl {
+    Impl(std::string bus, ConnectOptions connect_options);
+    ~Impl();
+    Impl(const Impl&) = delete;
+    Impl& operator=(const Impl&) = delete;
+    Impl(Impl&&) = delete;
+    Impl& operator=(Impl&&) = delete;
+
+    std::expected<void, Error> open();  // ports, first status, drives
+    std::expected<shm::Response, Error> call(shm::Request request, bool wait = true);
+    [[nodiscard]] bool alive() const;
+    [[nodiscard]] DriveFeed* feed(std::string_view name);
+
+    void on_status_sample();
+    void on_drive_sample(DriveFeed& feed);
+    void on_response();
+    void renew_loop(std::stop_token stop);
+
+    std::string name;
+    ConnectOptions options;
+    std::uint64_t client_id = 0;
+    std::string client_name;
+    bool may_request = false;
+
+    mutable std::mutex mutex;  // everything below
+    mutable std::condition_variable changed;
+    std::optional<shm::BusStatus> status;
+    Clock::time_point status_time{};
+    std::vector<std::unique_ptr<DriveFeed>> drives;
+    std::map<std::uint64_t, std::function<void(const shm::BusStatus&)>> status_callbacks;
+    std::uint64_t next_callback = 1;
+    std::unordered_map<std::uint64_t, std::optional<shm::Response>> waiting;  // by correlation
+    std::uint64_t next_correlation = 1;
+    std::map<std::string, Lease> leases;  // by drive name
+
+    std::mutex client_mutex;  // the client port is used by callers and the listener
+    std::unique_ptr<iox::popo::Subscriber<shm::BusStatus>> status_subscriber;
+    std::unique_ptr<iox::popo::UntypedClient> client;
+    std::unique_ptr<iox::popo::Listener> listener;
+    std::jthread renewer;
+};
+
+// Process-wide: the iceoryx runtime, started once with a name unique to this process.
+std::expected<void, Error> ensure_runtime(const std::string& application);
+Error make_error(ErrorKind kind, std::string message);
+// A response as an error, when it is one; `what` names the target ("drive pump").
+std::expected<void, Error> check_response(const std::string& what, const shm::Response& response);
+std::string exception_text(std::uint8_t code);
+
+}  // namespace drivebus

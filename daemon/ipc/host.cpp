@@ -1,0 +1,250 @@
+#include "ipc/host.hpp"
+
+#include <grp.h>
+#include <pwd.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fmt/format.h>
+
+#include "drivebus/shm.hpp"
+#include "iceoryx_hoofs/error_handling/error_handling.hpp"
+#include "iceoryx_hoofs/log/logmanager.hpp"
+#include "iceoryx_posh/iceoryx_posh_config.hpp"
+#include "iceoryx_posh/internal/roudi/roudi.hpp"
+#include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
+#include "iceoryx_posh/runtime/posh_runtime.hpp"
+#include "sys/posix.hpp"
+
+namespace drivebus::ipc {
+namespace {
+
+// A chunk is the payload plus iceoryx's chunk header (40 bytes), rounded up.
+constexpr std::uint32_t kSmallChunk = 1024;   // Response, Request
+constexpr std::uint32_t kLargeChunk = 4096;   // DriveSnapshot, BusStatus
+static_assert(sizeof(shm::Response) + 64 <= kSmallChunk && sizeof(shm::Request) + 64 <= kSmallChunk);
+static_assert(sizeof(shm::DriveSnapshot) + 64 <= kLargeChunk && sizeof(shm::BusStatus) + 64 <= kLargeChunk);
+
+// Queue depths the publishers and servers use (bus_service.cpp keeps to these).
+constexpr std::uint32_t kSubscriberQueue = 2;
+constexpr std::uint32_t kResponseQueue = 16;  // iceoryx 2.0's most per client
+constexpr std::uint32_t kRequestQueue = 256;  // per server
+
+bool group_exists(const std::string& name) {
+    return ::getgrnam(name.c_str()) != nullptr;
+}
+
+std::vector<std::string> groups_of_this_user() {
+    std::vector<std::string> names;
+    const auto* pw = ::getpwuid(::geteuid());
+    if (pw == nullptr) {
+        return names;
+    }
+    int n = 64;
+    std::vector<gid_t> gids(static_cast<std::size_t>(n));
+    if (::getgrouplist(pw->pw_name, pw->pw_gid, gids.data(), &n) < 0) {
+        gids.resize(static_cast<std::size_t>(n));
+        ::getgrouplist(pw->pw_name, pw->pw_gid, gids.data(), &n);
+    }
+    gids.resize(static_cast<std::size_t>(std::max(n, 0)));
+    for (const auto gid : gids) {
+        if (const auto* g = ::getgrgid(gid)) {
+            names.emplace_back(g->gr_name);
+        }
+    }
+    return names;
+}
+
+std::string primary_group() {
+    if (const auto* g = ::getgrgid(::getegid())) {
+        return g->gr_name;
+    }
+    return std::to_string(::getegid());
+}
+
+std::uint32_t drive_count(const config::Config& config) {
+    std::uint32_t n = 0;
+    for (const auto& bus : config.buses) {
+        n += static_cast<std::uint32_t>(bus.drives.size());
+    }
+    return n;
+}
+
+// Every publisher keeps its history chunk, each subscriber's queue may hold kSubscriberQueue,
+// and a few are in flight.
+std::vector<MemPool> publication_pools(const config::Config& config) {
+    const auto clients = static_cast<std::uint32_t>(config.ipc.max_clients);
+    const auto publishers = drive_count(config) + static_cast<std::uint32_t>(config.buses.size());
+    const std::uint32_t large = publishers * (1 + clients * kSubscriberQueue + 2);
+    const std::uint32_t small = static_cast<std::uint32_t>(config.buses.size()) * clients * (kResponseQueue + 4);
+    return {{kSmallChunk, small}, {kLargeChunk, large}};
+}
+
+std::vector<MemPool> request_pools(const config::Config& config) {
+    const auto clients = static_cast<std::uint32_t>(config.ipc.max_clients);
+    const std::uint32_t count = static_cast<std::uint32_t>(config.buses.size()) * (kRequestQueue + clients * 4);
+    return {{kSmallChunk, count}};
+}
+
+std::uint64_t bytes_of(const Layout& layout) {
+    std::uint64_t total = 0;
+    for (const auto& s : layout.segments) {
+        for (const auto& p : s.pools) {
+            total += static_cast<std::uint64_t>(p.size + 64) * p.count;
+        }
+    }
+    return total;
+}
+
+// FATAL iceoryx errors abort by default; drivebusd ends with one line instead.
+void on_iceoryx_error(const iox::Error error, const std::function<void()>& callback, const iox::ErrorLevel level) {
+    if (callback) {
+        callback();
+    }
+    if (level == iox::ErrorLevel::FATAL) {
+        std::fprintf(stderr, "<3>drivebusd: iceoryx: fatal error %s\n", iox::ErrorHandler::toString(error));
+        std::fflush(stderr);
+        std::_Exit(1);
+    }
+    std::fprintf(stderr, "<4>drivebusd: iceoryx: %s\n", iox::ErrorHandler::toString(error));
+}
+
+}  // namespace
+
+struct Host::Embedded {
+    explicit Embedded(const iox::RouDiConfig_t& config)
+        : components(config),
+          roudi(components.rouDiMemoryManager, components.portManager,
+                iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
+                                                          /*killProcessesInDestructor=*/false}) {}
+    iox::roudi::IceOryxRouDiComponents components;
+    iox::roudi::RouDi roudi;
+};
+
+std::expected<Layout, std::string> plan_layout(const config::Config& config) {
+    const auto& ipc = config.ipc;
+    const std::array<const std::string*, 3> groups = {&ipc.watch_group, &ipc.control_group, &ipc.daemon_group};
+    const auto present = std::ranges::count_if(groups, [](const std::string* g) { return group_exists(*g); });
+    Layout layout;
+    if (present == 0) {
+        const auto own = primary_group();
+        layout.segments.push_back({own, own, publication_pools(config)});
+        auto& pools = layout.segments.back().pools;
+        pools.front().count += request_pools(config).front().count;
+        return layout;
+    }
+    if (present != 3) {
+        std::string missing;
+        for (const auto* g : groups) {
+            if (!group_exists(*g)) {
+                missing += (missing.empty() ? "" : ", ") + *g;
+            }
+        }
+        return std::unexpected(fmt::format("[ipc]: group(s) {} do not exist while the others do; create them "
+                                           "(systemd-sysusers drivebus.conf) or name existing groups in [ipc]",
+                                           missing));
+    }
+    const auto mine = groups_of_this_user();
+    if (std::ranges::find(mine, ipc.daemon_group) == mine.end()) {
+        return std::unexpected(fmt::format("[ipc]: this user is not in daemon_group {}, so it could not publish; "
+                                           "run drivebusd as the drivebus user or add the group "
+                                           "(usermod -aG {} USER)",
+                                           ipc.daemon_group, ipc.daemon_group));
+    }
+    if (std::ranges::find(mine, ipc.control_group) != mine.end()) {
+        return std::unexpected(fmt::format("[ipc]: this user is in control_group {} as well as daemon_group {}; "
+                                           "iceoryx allows one writable segment per user",
+                                           ipc.control_group, ipc.daemon_group));
+    }
+    layout.grouped = true;
+    layout.control_group = ipc.control_group;
+    layout.segments.push_back({ipc.watch_group, ipc.daemon_group, publication_pools(config)});
+    layout.segments.push_back({ipc.daemon_group, ipc.control_group, request_pools(config)});
+    return layout;
+}
+
+bool roudi_running() {
+    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) {
+        return false;
+    }
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof(addr.sun_path), "%s%s", iox::platform::IOX_UDS_SOCKET_PATH_PREFIX,
+                  iox::roudi::IPC_CHANNEL_ROUDI_NAME);
+    const auto rc = sys::posix_call("connect", [&] { return ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr); });
+    ::close(fd);
+    return rc.has_value();
+}
+
+std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Config& config, const std::string& name) {
+    static auto handler = iox::ErrorHandler::setTemporaryErrorHandler(on_iceoryx_error);
+    iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kWarn,
+                                                             iox::log::LogLevelOutput::kHideLogLevel);
+    auto layout = plan_layout(config);
+    if (!layout) {
+        return std::unexpected(layout.error());
+    }
+    std::unique_ptr<Host> host(new Host());
+    host->layout_ = std::move(*layout);
+    const bool running = roudi_running();
+    switch (config.ipc.roudi) {
+    case config::RouDiMode::Embedded:
+        if (running) {
+            return std::unexpected("[ipc] roudi = \"embedded\", but a RouDi already runs (/tmp/roudi answers): "
+                                   "another drivebusd or iox-roudi; stop it, or set roudi = \"external\" or \"auto\"");
+        }
+        break;
+    case config::RouDiMode::External:
+        if (!running) {
+            return std::unexpected("[ipc] roudi = \"external\", but no RouDi answers on /tmp/roudi: start "
+                                   "drivebus-roudi.service (iox-roudi), or set roudi = \"auto\"");
+        }
+        break;
+    case config::RouDiMode::Auto: break;
+    }
+    if (!running) {
+        iox::RouDiConfig_t roudi_config;
+        for (const auto& segment : host->layout_.segments) {
+            iox::mepoo::MePooConfig pools;
+            for (const auto& p : segment.pools) {
+                pools.addMemPool({p.size, p.count});
+            }
+            roudi_config.m_sharedMemorySegments.push_back(
+                {iox::posix::PosixGroup::string_t(iox::cxx::TruncateToCapacity, segment.reader_group.c_str()),
+                 iox::posix::PosixGroup::string_t(iox::cxx::TruncateToCapacity, segment.writer_group.c_str()),
+                 pools});
+        }
+        roudi_config.iox::config::RouDiConfig::setDefaults();
+        host->roudi_ = std::make_unique<Embedded>(roudi_config);
+    }
+    iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+    return host;
+}
+
+Host::~Host() = default;
+
+bool Host::embedded() const noexcept {
+    return roudi_ != nullptr;
+}
+
+std::string Host::describe() const {
+    const double mib = static_cast<double>(bytes_of(layout_)) / (1024.0 * 1024.0);
+    std::string text = embedded() ? fmt::format("embedded RouDi, {} segment(s), {:.1f} MiB of chunks",
+                                                layout_.segments.size(), mib)
+                                  : std::string("system RouDi (external)");
+    if (layout_.grouped) {
+        text += fmt::format("; watchers: group {}, requests: group {}", layout_.segments.front().reader_group,
+                            layout_.control_group);
+    } else {
+        text += fmt::format("; groups not set up: any process of group {} may watch and send requests",
+                            layout_.segments.front().writer_group);
+    }
+    return text;
+}
+
+}  // namespace drivebus::ipc

@@ -1,0 +1,201 @@
+// libdrivebus: how an application reaches the drives that drivebusd runs.
+//
+//   auto bus = drivebus::Bus::connect("line1");
+//   auto pump = bus->drive("pump");                       // by name, or "3" by address
+//   auto speed = pump->read("FD00");                      // one request on the bus
+//   pump->write("FA01", {5000});                          // takes the drive's control lease
+//   auto snap = pump->wait_snapshot(std::chrono::seconds(1));  // the latest polled values
+//
+// Everything returns std::expected: nothing here throws. A Bus is safe to use from several
+// threads; callbacks run on the library's own thread and must not block.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "drivebus/profile.hpp"
+#include "drivebus/shm.hpp"
+
+#if defined(DRIVEBUS_CLIENT_BUILD)
+#define DRIVEBUS_API __attribute__((visibility("default")))
+#else
+#define DRIVEBUS_API
+#endif
+
+namespace drivebus {
+
+using Clock = std::chrono::steady_clock;
+using Milliseconds = std::chrono::milliseconds;
+
+enum class ErrorKind : std::uint8_t {
+    Exception,     // the drive answered with a Modbus exception (Error::exception)
+    Timeout,       // the drive did not answer
+    BadFrame,      // the reply was spoiled (CRC, framing, parity, echo)
+    Rejected,      // drivebusd refused the request before the bus (Error::reason)
+    QueueFull,     // the bus's queue is full: retry later
+    BusDown,       // the bus's line is not open
+    NotPermitted,  // another client holds the control lease, or not in the control group
+    NotRunning,    // no drivebusd (no RouDi) to connect to
+    NoSuchBus,     // drivebusd runs but does not announce that bus
+    DaemonGone,    // drivebusd went silent after we connected
+    NoReply,       // drivebusd did not answer the request in time
+    InvalidArgument,  // bad input on this side: unknown register name, value too large
+    Unsupported,   // the drive's profile does not define what was asked (a helper)
+};
+
+[[nodiscard]] DRIVEBUS_API std::string_view to_string(ErrorKind kind) noexcept;
+
+struct Error {
+    ErrorKind kind = ErrorKind::InvalidArgument;
+    std::string message;  // one line, says what to do
+    std::uint8_t exception = 0;
+    shm::RejectReason reason = shm::RejectReason::None;
+    std::uint64_t lease_holder = 0;
+};
+
+struct ConnectOptions {
+    std::string application = "drivebus-client";  // shown in drivebusd's logs
+    // How long a request may take before NoReply (queueing and retries included).
+    Milliseconds request_timeout{2000};
+    // No bus status for this long: DaemonGone. drivebusd publishes at least once a second.
+    Milliseconds daemon_silence{3000};
+    // How long connect() waits for the bus to be announced.
+    Milliseconds connect_timeout{2000};
+    // Where drive profiles are found (register names, units, fault names); default search path.
+    std::optional<std::filesystem::path> profile_dir;
+};
+
+struct Identity {
+    std::string vendor;
+    std::string product_code;
+    std::string revision;
+};
+
+struct WriteOptions {
+    bool take_over = false;  // take the control lease from another client
+};
+
+// A callback registration; unregisters when destroyed.
+class DRIVEBUS_API Subscription {
+public:
+    Subscription() = default;
+    explicit Subscription(std::function<void()> cancel) : cancel_(std::move(cancel)) {}
+    ~Subscription() { reset(); }
+    Subscription(Subscription&& other) noexcept : cancel_(std::move(other.cancel_)) { other.cancel_ = nullptr; }
+    Subscription& operator=(Subscription&& other) noexcept {
+        if (this != &other) {
+            reset();
+            cancel_ = std::move(other.cancel_);
+            other.cancel_ = nullptr;
+        }
+        return *this;
+    }
+    Subscription(const Subscription&) = delete;
+    Subscription& operator=(const Subscription&) = delete;
+    void reset() {
+        if (cancel_) {
+            cancel_();
+            cancel_ = nullptr;
+        }
+    }
+
+private:
+    std::function<void()> cancel_;
+};
+
+class Drive;
+
+class DRIVEBUS_API Bus {
+public:
+    // Connects to the bus `bus` of a running drivebusd (empty: the only bus announced). Fails
+    // fast with NotRunning when no drivebusd runs, and NoSuchBus when it does not announce it.
+    static std::expected<Bus, Error> connect(std::string_view bus = {}, ConnectOptions options = {});
+    // The buses drivebusd announces.
+    static std::expected<std::vector<std::string>, Error> list(ConnectOptions options = {});
+
+    ~Bus();
+    Bus(Bus&&) noexcept;
+    Bus& operator=(Bus&&) noexcept;
+    Bus(const Bus&) = delete;
+    Bus& operator=(const Bus&) = delete;
+
+    [[nodiscard]] const std::string& name() const noexcept;
+    // The latest bus status (waits up to `wait` for the first one).
+    [[nodiscard]] std::expected<shm::BusStatus, Error> status(Milliseconds wait = Milliseconds(0)) const;
+    // False once drivebusd has been silent for ConnectOptions::daemon_silence.
+    [[nodiscard]] bool daemon_alive() const;
+    // The drive by name or by address ("3").
+    [[nodiscard]] std::expected<Drive, Error> drive(std::string_view name_or_address) const;
+    // Whether this process may send requests (member of the bus's control group).
+    [[nodiscard]] bool can_request() const;
+    // Calls `callback` with each bus status.
+    [[nodiscard]] Subscription on_status(std::function<void(const shm::BusStatus&)> callback) const;
+
+    // A raw request: fills correlation and client, waits for the response.
+    [[nodiscard]] std::expected<shm::Response, Error> request(shm::Request request) const;
+    // A write to every drive (address 0): no reply, the bus waits the turnaround.
+    [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address, std::span<const std::uint16_t> values) const;
+
+    // This process's client id, as drivebusd sees it (lease holder).
+    [[nodiscard]] std::uint64_t client_id() const noexcept;
+
+    struct Impl;
+
+private:
+    explicit Bus(std::shared_ptr<Impl> impl);
+    std::shared_ptr<Impl> impl_;
+    friend class Drive;
+};
+
+class DRIVEBUS_API Drive {
+public:
+    [[nodiscard]] const std::string& name() const noexcept;
+    [[nodiscard]] std::uint8_t address() const noexcept;
+    // The drive's profile, when it could be loaded (names, units, limits).
+    [[nodiscard]] const Profile* profile() const noexcept;
+
+    // A register by profile name ("FA01", "W450") or number ("0xFA01", "64001").
+    [[nodiscard]] std::expected<std::uint16_t, Error> resolve(std::string_view reg) const;
+    [[nodiscard]] const RegisterInfo* info(std::uint16_t address) const noexcept;
+
+    // The latest snapshot; waits up to `wait` for one newer than `after` (sequence).
+    [[nodiscard]] std::expected<shm::DriveSnapshot, Error> wait_snapshot(Milliseconds wait,
+                                                                         std::uint64_t after = 0) const;
+    // Calls `callback` on each new snapshot (on the library's thread).
+    [[nodiscard]] Subscription on_snapshot(std::function<void(const shm::DriveSnapshot&)> callback) const;
+
+    // Requests on the bus.
+    [[nodiscard]] std::expected<std::vector<std::uint16_t>, Error> read(std::uint16_t address,
+                                                                       std::uint16_t count = 1) const;
+    [[nodiscard]] std::expected<std::vector<std::uint16_t>, Error> read(std::string_view reg,
+                                                                       std::uint16_t count = 1) const;
+    [[nodiscard]] std::expected<void, Error> write(std::uint16_t address, std::span<const std::uint16_t> values,
+                                                   WriteOptions options = {}) const;
+    [[nodiscard]] std::expected<void, Error> write(std::string_view reg, std::span<const std::uint16_t> values,
+                                                   WriteOptions options = {}) const;
+    [[nodiscard]] std::expected<Identity, Error> identify() const;
+
+    // Gives up the control lease without the fallback (the library renews it otherwise).
+    [[nodiscard]] std::expected<void, Error> release_control() const;
+    // Stops renewing the lease (tests: what a hung application looks like).
+    void stop_renewing() const;
+
+private:
+    Drive(std::shared_ptr<Bus::Impl> bus, std::string name, std::uint8_t address, std::shared_ptr<const Profile> profile);
+    std::shared_ptr<Bus::Impl> bus_;
+    std::string name_;
+    std::uint8_t address_ = 0;
+    std::shared_ptr<const Profile> profile_;
+    friend class Bus;
+};
+
+}  // namespace drivebus

@@ -1,0 +1,310 @@
+// The shared-memory contract between drivebusd and its clients: the payloads published and
+// exchanged through iceoryx. Every type here is fixed-size and trivially copyable (no
+// pointers, no heap) and starts with a version; a reader checks `version` and `size` before
+// trusting the rest. Changing a layout means bumping kPayloadVersion.
+//
+// Services (iceoryx service / instance / event):
+//   ("drivebus", <bus>, "drive/<name>")  DriveSnapshot, history 1
+//   ("drivebus", <bus>, "status")        BusStatus, history 1, at least once a second
+//   ("drivebus", <bus>, "requests")      request server: Request in, Response out
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string_view>
+#include <type_traits>
+
+namespace drivebus::shm {
+
+inline constexpr std::uint32_t kPayloadVersion = 1;
+inline constexpr std::string_view kService = "drivebus";
+inline constexpr std::string_view kStatusEvent = "status";
+inline constexpr std::string_view kRequestEvent = "requests";
+inline constexpr std::string_view kDriveEventPrefix = "drive/";
+
+inline constexpr std::size_t kNameSize = 32;     // bus and drive names, NUL-terminated
+inline constexpr std::size_t kProfileSize = 16;  // profile type, NUL-terminated
+inline constexpr std::size_t kGroupSize = 32;    // Unix group names
+inline constexpr std::size_t kMaxSnapshotRegisters = 128;
+inline constexpr std::size_t kMaxDrivesPerBus = 32;
+inline constexpr std::size_t kMaxReadWords = 125;   // FC03
+inline constexpr std::size_t kMaxWriteWords = 123;  // FC16
+inline constexpr std::size_t kIdentObjectSize = 64;
+
+// A fixed char buffer as a string.
+template <std::size_t N>
+[[nodiscard]] std::string_view view(const std::array<char, N>& text) noexcept {
+    return {text.data(), ::strnlen(text.data(), N)};
+}
+// Copies `from` (truncated to N-1 characters) and pads with NULs.
+template <std::size_t N>
+void assign(std::array<char, N>& text, std::string_view from) noexcept {
+    text.fill('\0');
+    std::memcpy(text.data(), from.data(), from.size() < N ? from.size() : N - 1);
+}
+
+enum class DriveHealth : std::uint8_t {
+    Unknown = 0,  // not polled yet
+    Online = 1,
+    Absent = 2,   // stopped answering; probed with back-off
+};
+
+enum class Fallback : std::uint8_t { Hold = 0, Stop = 1, Freewheel = 2 };
+
+enum class LeaseState : std::uint8_t {
+    Free = 0,     // nobody commands the drive
+    Held = 1,     // `holder` commands it and renews in time
+    Expired = 2,  // the holder stopped renewing; the fallback was applied
+};
+
+struct RegisterSample {
+    std::uint16_t address = 0;
+    std::uint16_t value = 0;
+    std::uint8_t valid = 0;  // 0: never read, or the last read of it failed
+    std::array<std::uint8_t, 3> reserved{};
+    std::int64_t time_ns = 0;  // CLOCK_MONOTONIC end of the reply the value came from
+};
+
+struct DriveCounters {
+    std::uint64_t requests = 0;  // attempts sent
+    std::uint64_t replies = 0;   // valid replies, exceptions included
+    std::uint64_t timeouts = 0;
+    std::uint64_t bad_frames = 0;
+    std::uint64_t retries = 0;
+    std::uint64_t exceptions = 0;
+    std::uint64_t absent_transitions = 0;
+};
+
+struct LeaseStatus {
+    std::uint64_t holder = 0;  // client id; 0: none
+    std::int64_t expires_ns = 0;  // CLOCK_MONOTONIC; 0 when free
+    std::uint32_t duration_ms = 0;
+    LeaseState state = LeaseState::Free;
+    Fallback fallback = Fallback::Hold;
+    std::uint8_t fallback_ok = 0;  // the fallback write was acknowledged by the drive
+    std::uint8_t reserved = 0;
+    std::int64_t expired_ns = 0;  // when it last expired; 0: never
+    std::uint64_t expiries = 0;   // how often it has expired since drivebusd started
+};
+
+struct DriveSnapshot {
+    std::uint32_t version = kPayloadVersion;
+    std::uint32_t size = 0;  // sizeof(DriveSnapshot) of the writer
+    std::uint64_t sequence = 0;  // +1 per snapshot of this drive
+    std::int64_t published_ns = 0;
+    std::array<char, kNameSize> bus{};
+    std::array<char, kNameSize> name{};
+    std::array<char, kProfileSize> profile{};
+    std::uint8_t address = 0;
+    DriveHealth health = DriveHealth::Unknown;
+    std::uint16_t register_count = 0;
+    std::array<std::uint8_t, 4> reserved{};
+    DriveCounters counters;
+    LeaseStatus lease;
+    std::array<RegisterSample, kMaxSnapshotRegisters> registers{};  // sorted by address
+
+    [[nodiscard]] const RegisterSample* find(std::uint16_t reg) const noexcept {
+        for (std::size_t i = 0; i < register_count && i < registers.size(); ++i) {
+            if (registers[i].address == reg) {
+                return &registers[i];
+            }
+        }
+        return nullptr;
+    }
+};
+
+struct Timing {
+    std::uint64_t count = 0;
+    std::int64_t mean_ns = 0;
+    std::int64_t max_ns = 0;
+};
+
+struct BusCounters {
+    std::uint64_t transmissions = 0;
+    std::uint64_t replies = 0;
+    std::uint64_t timeouts = 0;
+    std::uint64_t crc_errors = 0;
+    std::uint64_t gap_errors = 0;
+    std::uint64_t parity_errors = 0;
+    std::uint64_t overflows = 0;
+    std::uint64_t noise = 0;
+    std::uint64_t foreign = 0;
+    std::uint64_t malformed = 0;
+    std::uint64_t echo_mismatches = 0;
+    std::uint64_t retries = 0;
+    std::uint64_t broadcasts = 0;
+    std::uint64_t queue_rejections = 0;
+    std::uint64_t line_down = 0;
+    std::uint64_t exceptions = 0;
+    std::uint64_t requests_served = 0;  // client requests answered, rejections included
+    std::uint64_t lease_expiries = 0;
+};
+
+struct DriveEntry {
+    std::array<char, kNameSize> name{};
+    std::array<char, kProfileSize> profile{};
+    std::uint8_t address = 0;
+    DriveHealth health = DriveHealth::Unknown;
+    std::array<std::uint8_t, 6> reserved{};
+};
+
+struct BusStatus {
+    std::uint32_t version = kPayloadVersion;
+    std::uint32_t size = 0;
+    std::uint64_t sequence = 0;
+    std::int64_t published_ns = 0;
+    std::int32_t daemon_pid = 0;
+    std::uint32_t baud = 0;
+    std::array<char, kNameSize> bus{};
+    std::array<char, 64> device{};
+    std::array<char, 4> format{};  // "8E1"
+    std::uint8_t up = 0;           // the line is open
+    std::uint8_t drive_count = 0;
+    std::uint8_t drives_online = 0;
+    std::uint8_t reserved = 0;
+    // Who may send requests: members of this group (empty: anyone who can reach RouDi).
+    std::array<char, kGroupSize> control_group{};
+    BusCounters counters;
+    Timing reply_latency;  // request off the wire to the reply's last character
+    Timing extra_gap;      // silence before a request beyond the t3.5 required
+    std::array<DriveEntry, kMaxDrivesPerBus> drives{};
+};
+
+enum class RequestKind : std::uint8_t {
+    Read = 0,          // FC03
+    Write = 1,         // FC06 for one word, FC16 for more (or `function` if set)
+    Identify = 2,      // FC43/14, basic objects
+    Broadcast = 3,     // a write to address 0: no reply
+    LeaseRenew = 4,    // keeps the caller's control lease on the drive
+    LeaseRelease = 5,  // gives it up: no fallback
+    Probe = 6,         // FC03 of one word at `start` to `address`, configured or not: who answers?
+};
+
+inline constexpr std::uint8_t kFlagTakeOver = 0x01;  // take the control lease from its holder
+
+struct Request {
+    std::uint32_t version = kPayloadVersion;
+    std::uint32_t size = 0;
+    std::uint64_t correlation = 0;  // echoed in the response
+    std::uint64_t client = 0;       // the client's id (per process, random)
+    RequestKind kind = RequestKind::Read;
+    std::uint8_t flags = 0;
+    std::uint8_t address = 0;    // the drive, when `drive` is empty
+    std::uint8_t function = 0;   // Write/Broadcast: 6 or 16; 0 lets drivebusd choose
+    std::uint16_t start = 0;     // first register
+    std::uint16_t count = 0;     // words to read, or words in `values`
+    std::array<char, kNameSize> drive{};
+    std::array<char, kNameSize> client_name{};  // for logs: "pump-control[1234]"
+    std::array<std::uint16_t, kMaxWriteWords> values{};
+};
+
+enum class Status : std::uint8_t {
+    Ok = 0,
+    Exception = 1,     // the drive answered with Modbus exception `exception`
+    Timeout = 2,       // no reply on any attempt
+    BadFrame = 3,      // CRC, framing, parity or echo error on the last attempt
+    Rejected = 4,      // failed validation, never sent: see `reason`
+    QueueFull = 5,     // the bus's request queue is full: try again later
+    BusDown = 6,       // the line is not open
+    NotPermitted = 7,  // another client holds the drive's control lease
+};
+
+enum class RejectReason : std::uint8_t {
+    None = 0,
+    UnknownDrive = 1,
+    UnknownRegister = 2,
+    ReadOnly = 3,
+    WriteOnly = 4,
+    Quantity = 5,          // count 0, above the function's or the profile's limit
+    ValueOutOfRange = 6,   // outside the profile's min/max
+    Unsupported = 7,       // the function is not supported by that drive (profile)
+    Malformed = 8,         // wrong version or size, unknown kind
+};
+
+struct Response {
+    std::uint32_t version = kPayloadVersion;
+    std::uint32_t size = 0;
+    std::uint64_t correlation = 0;
+    Status status = Status::Ok;
+    std::uint8_t exception = 0;  // Modbus exception code for Status::Exception
+    RejectReason reason = RejectReason::None;
+    std::uint8_t attempts = 0;
+    std::uint16_t register_address = 0;  // the register a rejection is about
+    std::uint16_t count = 0;             // words in `values`
+    std::uint32_t lease_ms = 0;          // this request took or renewed a lease of this length
+    std::uint32_t reserved = 0;
+    std::int64_t reply_ns = 0;           // CLOCK_MONOTONIC end of the reply
+    std::uint64_t lease_holder = 0;      // NotPermitted: who holds the lease
+    std::array<std::uint16_t, kMaxReadWords> values{};
+    // Identify: vendor name, product code, revision.
+    std::array<std::array<char, kIdentObjectSize>, 3> identity{};
+};
+
+static_assert(std::is_trivially_copyable_v<DriveSnapshot>);
+static_assert(std::is_trivially_copyable_v<BusStatus>);
+static_assert(std::is_trivially_copyable_v<Request>);
+static_assert(std::is_trivially_copyable_v<Response>);
+static_assert(std::is_standard_layout_v<DriveSnapshot> && std::is_standard_layout_v<BusStatus>);
+static_assert(std::is_standard_layout_v<Request> && std::is_standard_layout_v<Response>);
+
+// Whether a payload read from shared memory has the layout this code was built with.
+template <typename T>
+[[nodiscard]] bool compatible(const T& payload) noexcept {
+    return payload.version == kPayloadVersion && payload.size == sizeof(T);
+}
+
+[[nodiscard]] constexpr std::string_view to_string(Status status) noexcept {
+    switch (status) {
+        case Status::Ok: return "ok";
+        case Status::Exception: return "exception";
+        case Status::Timeout: return "timeout";
+        case Status::BadFrame: return "bad frame";
+        case Status::Rejected: return "rejected";
+        case Status::QueueFull: return "queue full";
+        case Status::BusDown: return "bus down";
+        case Status::NotPermitted: return "not permitted";
+    }
+    return "unknown";
+}
+[[nodiscard]] constexpr std::string_view to_string(RejectReason reason) noexcept {
+    switch (reason) {
+        case RejectReason::None: return "none";
+        case RejectReason::UnknownDrive: return "unknown drive";
+        case RejectReason::UnknownRegister: return "unknown register";
+        case RejectReason::ReadOnly: return "read-only register";
+        case RejectReason::WriteOnly: return "write-only register";
+        case RejectReason::Quantity: return "quantity out of range";
+        case RejectReason::ValueOutOfRange: return "value out of range";
+        case RejectReason::Unsupported: return "function not supported by the drive";
+        case RejectReason::Malformed: return "malformed request";
+    }
+    return "unknown";
+}
+[[nodiscard]] constexpr std::string_view to_string(DriveHealth health) noexcept {
+    switch (health) {
+        case DriveHealth::Unknown: return "unknown";
+        case DriveHealth::Online: return "online";
+        case DriveHealth::Absent: return "absent";
+    }
+    return "unknown";
+}
+[[nodiscard]] constexpr std::string_view to_string(Fallback fallback) noexcept {
+    switch (fallback) {
+        case Fallback::Hold: return "hold";
+        case Fallback::Stop: return "stop";
+        case Fallback::Freewheel: return "freewheel";
+    }
+    return "unknown";
+}
+[[nodiscard]] constexpr std::string_view to_string(LeaseState state) noexcept {
+    switch (state) {
+        case LeaseState::Free: return "free";
+        case LeaseState::Held: return "held";
+        case LeaseState::Expired: return "expired";
+    }
+    return "unknown";
+}
+
+}  // namespace drivebus::shm
