@@ -9,7 +9,7 @@ namespace {
 
 constexpr std::string_view kHelp =
     "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
-    "get ADDR REG | set ADDR REG VALUE | option ADDR key=value";
+    "writes ADDR | get ADDR REG | set ADDR REG VALUE | option ADDR key=value";
 
 std::vector<std::string_view> words(std::string_view line) {
     std::vector<std::string_view> out;
@@ -118,6 +118,19 @@ std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
             bus.faults().clear(*address);
         }
         return "ok " + bus.faults().to_string();
+    }
+    if (verb == "writes" && w.size() == 2) {
+        const auto address = target(bus, w[1], false);
+        if (!address) {
+            return error(address.error());
+        }
+        std::string out = "ok";
+        char item[24];
+        for (const auto& [reg, value] : bus.drive(*address)->write_log()) {
+            std::snprintf(item, sizeof item, " 0x%04X=%u", reg, value);
+            out += item;
+        }
+        return out;
     }
     if (verb == "get" && w.size() == 3) {
         const auto address = target(bus, w[1], false);

@@ -27,7 +27,28 @@ rtu::Response ProfileDrive::handle(const rtu::Request& request, bool broadcast, 
         rtu::Response operator()(const rtu::WriteMultipleRegisters& r) const { return drive.write_multiple(r, now); }
         rtu::Response operator()(const rtu::ReadDeviceIdentification& r) const { return drive.identify(r, now); }
     };
-    return std::visit(Dispatch{*this, now}, request);
+    auto response = std::visit(Dispatch{*this, now}, request);
+    if (!std::holds_alternative<rtu::ExceptionResponse>(response)) {
+        log_writes(request);
+    }
+    return response;
+}
+
+void ProfileDrive::log_writes(const rtu::Request& request) {
+    const auto add = [&](std::uint16_t address, std::uint16_t value) {
+        if (write_log_.size() == kWriteLogSize) {
+            write_log_.pop_front();
+        }
+        write_log_.emplace_back(address, value);
+    };
+    if (const auto* one = std::get_if<rtu::WriteSingleRegister>(&request)) {
+        add(one->address, one->value);
+    } else if (const auto* many = std::get_if<rtu::WriteMultipleRegisters>(&request)) {
+        const auto words = many->values.words();
+        for (std::size_t i = 0; i < words.size(); ++i) {
+            add(static_cast<std::uint16_t>(many->start + i), words[i]);
+        }
+    }
 }
 
 void ProfileDrive::advance(rtu::Instant /*now*/) {}

@@ -2,6 +2,7 @@
 // time pass (ramps, time-outs). Pure: time is an argument, nothing here does I/O.
 #pragma once
 
+#include <deque>
 #include <cstdint>
 #include <expected>
 #include <memory>
@@ -32,6 +33,10 @@ public:
 
     // A decoded request addressed to this drive, or broadcast (whose reply is not sent).
     [[nodiscard]] rtu::Response handle(const rtu::Request& request, bool broadcast, rtu::Instant now);
+    // The last writes the drive accepted, oldest first: (register, value).
+    [[nodiscard]] const std::deque<std::pair<std::uint16_t, std::uint16_t>>& write_log() const noexcept {
+        return write_log_;
+    }
     // Lets time run to `now`.
     virtual void advance(rtu::Instant now);
 
@@ -64,6 +69,9 @@ private:
     rtu::SlaveAddress address_;
     std::shared_ptr<const Profile> profile_;
     RegisterBank bank_;
+    static constexpr std::size_t kWriteLogSize = 1024;
+    void log_writes(const rtu::Request& request);
+    std::deque<std::pair<std::uint16_t, std::uint16_t>> write_log_;
 };
 
 // Makes the drive for a profile type ("atv21", "atv58", or any other profile as a plain

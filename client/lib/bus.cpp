@@ -186,6 +186,17 @@ Bus::Impl::Impl(std::string bus, ConnectOptions connect_options)
 
 Bus::Impl::~Impl() {
     renewer = {};  // stops and joins
+    if (!alive()) {
+        (void)listener.release();
+        // RouDi went with drivebusd: giving the ports back would touch shared memory nobody
+        // manages any more (iceoryx aborts on it). The process keeps them until it ends.
+        for (auto& d : drives) {
+            (void)d->subscriber.release();
+        }
+        (void)client.release();
+        (void)status_subscriber.release();
+        return;
+    }
     listener.reset();
     for (auto& d : drives) {
         d->subscriber.reset();

@@ -1,0 +1,102 @@
+#include "stack.hpp"
+
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace drivebus::test {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+bool roudi_answers() {
+    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/roudi");
+    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(fd);
+    return ok;
+}
+
+std::uint64_t field(const std::string& text, const std::string& key) {
+    const auto at = text.find(key + "=");
+    if (at == std::string::npos) {
+        throw std::runtime_error("no " + key + " in: " + text);
+    }
+    return std::stoull(text.substr(at + key.size() + 1));
+}
+
+}  // namespace
+
+Stack::Stack(StackOptions options) {
+    dir_ = fs::temp_directory_path() / ("drivebus-stack-" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    if (roudi_answers()) {
+        throw std::runtime_error("a RouDi already runs on this machine (/tmp/roudi): stop it before these tests");
+    }
+    bus_ = "t" + std::to_string(::getpid());
+    std::vector<std::string> args = {"--drive", "1:atv21", "--drive", "2:atv58"};
+    if (!options.paced) {
+        args.emplace_back("--no-pace");
+    }
+    args.insert(args.end(), options.sim_args.begin(), options.sim_args.end());
+    fs::create_directories(dir_ / "sim");
+    sim_ = std::make_unique<SimProcess>(args, dir_ / "sim");
+    config_ = dir_ / "drivebusd.toml";
+    std::ofstream(config_) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
+                              "[ipc]\nroudi = \"embedded\"\n"
+                              "[[bus]]\nname = \""
+                           << bus_ << "\"\ndevice = \"" << sim_->link().string()
+                           << "\"\nparity = \"none\"\nresponse_timeout = \"100ms\"\nretries = 3\n"
+                              "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
+                           << options.drive_extra
+                           << "\n    [[bus.drive.poll]]\n    registers = [\"FD00\", \"FD01\", \"FE03\", \"FE05\", "
+                              "\"FC91\"]\n    indirect = true\n    period = \""
+                           << options.poll_period
+                           << "\"\n    [[bus.drive.poll]]\n    name = \"slow\"\n    registers = [\"FA01\", "
+                              "\"FC90\"]\n    period = \"200ms\"\n"
+                              "  [[bus.drive]]\n  name = \"fan\"\n  address = 2\n  profile = \"atv58\"\n"
+                              "    [[bus.drive.poll]]\n    registers = [\"W450\", \"W451\", \"W452\"]\n"
+                              "    period = \"100ms\"\n";
+    daemon_ = std::make_unique<Child>(std::vector<std::string>{DRIVEBUSD_PATH, "--config", config_.string()});
+    // Ready when drivebusd's RouDi answers and the daemon says it runs.
+    if (!wait_until([&] { return roudi_answers() && daemon_->output().find("running:") != std::string::npos; },
+                    10s)) {
+        throw std::runtime_error("drivebusd did not come up: " + daemon_->output());
+    }
+}
+
+Stack::~Stack() {
+    daemon_.reset();
+    sim_.reset();
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+}
+
+std::uint64_t Stack::sim_requests() const {
+    return field(sim_->command("stats"), "requests");
+}
+
+std::uint16_t Stack::sim_register(int address, const std::string& reg) const {
+    const auto reply = sim_->command("get " + std::to_string(address) + " " + reg);
+    if (reply.rfind("ok ", 0) != 0) {
+        throw std::runtime_error("sim get " + reg + ": " + reply);
+    }
+    return static_cast<std::uint16_t>(std::stoul(reply.substr(3)));
+}
+
+std::string Stack::daemon_output() const {
+    return daemon_->output();
+}
+
+int Stack::stop_daemon() {
+    return daemon_->stop();
+}
+
+}  // namespace drivebus::test

@@ -1,0 +1,53 @@
+// The whole stack in separate processes for a test: drivebus-sim on a pty (an ATV21 "pump" at
+// address 1 and an ATV58 "fan" at 2), drivebusd with its embedded RouDi on that pty, and the
+// bus's name for clients. iceoryx allows one RouDi per machine, so tests that build a Stack
+// carry the ctest RESOURCE_LOCK "iceoryx".
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim_process.hpp"
+
+namespace drivebus::test {
+
+struct StackOptions {
+    std::vector<std::string> sim_args;  // more drivebus-sim arguments (faults, options)
+    std::string drive_extra;            // extra keys for the pump's [[bus.drive]] table
+    std::string poll_period = "50ms";
+    bool paced = true;
+};
+
+class Stack {
+public:
+    explicit Stack(StackOptions options = {});
+    ~Stack();
+    Stack(const Stack&) = delete;
+    Stack& operator=(const Stack&) = delete;
+    Stack(Stack&&) = delete;
+    Stack& operator=(Stack&&) = delete;
+
+    [[nodiscard]] const std::string& bus() const noexcept { return bus_; }
+    [[nodiscard]] SimProcess& sim() noexcept { return *sim_; }
+    [[nodiscard]] const std::filesystem::path& dir() const noexcept { return dir_; }
+    [[nodiscard]] const std::filesystem::path& config() const noexcept { return config_; }
+    // Requests the simulator has received so far (its `stats` counter).
+    [[nodiscard]] std::uint64_t sim_requests() const;
+    // A register of a simulated drive, as the simulator holds it ("FD00" or a number).
+    [[nodiscard]] std::uint16_t sim_register(int address, const std::string& reg) const;
+    // drivebusd's output so far.
+    [[nodiscard]] std::string daemon_output() const;
+    // Stops drivebusd (SIGTERM) and returns its exit status.
+    int stop_daemon();
+
+private:
+    std::filesystem::path dir_;
+    std::filesystem::path config_;
+    std::string bus_;
+    std::unique_ptr<SimProcess> sim_;
+    std::unique_ptr<Child> daemon_;
+};
+
+}  // namespace drivebus::test

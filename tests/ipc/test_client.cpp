@@ -1,0 +1,132 @@
+// A client process for the multi-process tests, driven by its arguments:
+//
+//   test_client BUS snapshots N           print "snapshot SEQ FD00" for N new pump snapshots
+//   test_client BUS read REG N            N reads of REG on the pump: "value V" each
+//   test_client BUS writes REG V...       one write per value, in order, each acknowledged: "ok V"
+//   test_client BUS flood REG             reads REG until killed: "ready" after the first
+//   test_client BUS command HZ            take the pump's lease, run forward at HZ, "holding",
+//                                         then renew until killed
+//   test_client BUS hang HZ               same; once FD00 passes 5 Hz it stops renewing (a hung
+//                                         application): "hung"
+// Exit status: 0, or 1 with the library's one-line error on stderr.
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <thread>
+
+#include "drivebus/altivar.hpp"
+#include "drivebus/client.hpp"
+
+namespace {
+
+int fail(const drivebus::Error& e) {
+    std::fprintf(stderr, "test_client: %s: %s\n", std::string(drivebus::to_string(e.kind)).c_str(), e.message.c_str());
+    return 1;
+}
+
+void forever() {
+    for (;;) {
+        std::this_thread::sleep_for(std::chrono::hours(1));
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 3) {
+        std::fprintf(stderr, "usage: test_client BUS MODE ARGS...\n");
+        return 2;
+    }
+    const std::string mode = argv[2];
+    drivebus::ConnectOptions options;
+    options.application = "test_client_" + mode;
+    auto bus = drivebus::Bus::connect(argv[1], options);
+    if (!bus) {
+        return fail(bus.error());
+    }
+    auto pump = bus->drive("pump");
+    if (!pump) {
+        return fail(pump.error());
+    }
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    if (mode == "snapshots" && argc == 4) {
+        std::uint64_t seen = 0;
+        for (int i = 0; i < std::atoi(argv[3]); ++i) {
+            auto s = pump->wait_snapshot(std::chrono::seconds(1), seen);
+            if (!s && s.error().kind == drivebus::ErrorKind::NoReply) {
+                --i;  // nothing new yet: wait on, until the library says the daemon is gone
+                continue;
+            }
+            if (!s) {
+                return fail(s.error());
+            }
+            seen = s->sequence;
+            const auto* fd00 = s->find(0xFD00);
+            std::printf("snapshot %llu %u\n", static_cast<unsigned long long>(seen), fd00 ? fd00->value : 0U);
+        }
+        return 0;
+    }
+    if (mode == "read" && argc == 5) {
+        for (int i = 0; i < std::atoi(argv[4]); ++i) {
+            auto v = pump->read(argv[3]);
+            if (!v) {
+                return fail(v.error());
+            }
+            std::printf("value %u\n", v->at(0));
+        }
+        return 0;
+    }
+    if (mode == "writes" && argc >= 5) {
+        for (int i = 4; i < argc; ++i) {
+            const auto value = static_cast<std::uint16_t>(std::strtoul(argv[i], nullptr, 0));
+            if (auto ok = pump->write(argv[3], std::span(&value, 1)); !ok) {
+                return fail(ok.error());
+            }
+            std::printf("ok %u\n", value);
+        }
+        (void)pump->release_control();
+        return 0;
+    }
+    if (mode == "flood" && argc == 4) {
+        bool first = true;
+        for (;;) {
+            auto v = pump->read(argv[3]);
+            if (!v) {
+                return fail(v.error());
+            }
+            if (first) {
+                std::printf("ready\n");
+                first = false;
+            }
+        }
+    }
+    if ((mode == "command" || mode == "hang") && argc == 4) {
+        const drivebus::Altivar altivar(*pump);
+        if (auto ok = altivar.set_frequency(std::atof(argv[3])); !ok) {
+            return fail(ok.error());
+        }
+        if (auto ok = altivar.run_forward(); !ok) {
+            return fail(ok.error());
+        }
+        std::printf("holding\n");
+        if (mode == "hang") {
+            // Renew until the drive runs, then hang: the lease is no longer renewed.
+            std::uint64_t seen = 0;
+            for (;;) {
+                auto s = pump->wait_snapshot(std::chrono::seconds(1), seen);
+                if (s) {
+                    seen = s->sequence;
+                    const auto* fd00 = s->find(0xFD00);
+                    if (fd00 != nullptr && fd00->value > 500) {
+                        break;
+                    }
+                }
+            }
+            pump->stop_renewing();
+            std::printf("hung\n");
+        }
+        forever();
+    }
+    std::fprintf(stderr, "test_client: bad arguments for mode %s\n", mode.c_str());
+    return 2;
+}
