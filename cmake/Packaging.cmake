@@ -82,6 +82,12 @@ file(WRITE ${PROJECT_BINARY_DIR}/package/conffiles
 set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA
     ${PROJECT_SOURCE_DIR}/cmake/deb/postinst ${PROJECT_SOURCE_DIR}/cmake/deb/prerm
     ${PROJECT_SOURCE_DIR}/cmake/deb/postrm ${PROJECT_BINARY_DIR}/package/conffiles)
+# libdrivebus in /usr/lib/<multiarch>: ldconfig through dpkg's trigger, as debhelper does (CPack
+# adds its own ldconfig calls only to maintainer scripts it generates, not to ours).
+if(TARGET drivebus)
+  file(WRITE ${PROJECT_BINARY_DIR}/package/triggers "activate-noawait ldconfig\n")
+  list(APPEND CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA ${PROJECT_BINARY_DIR}/package/triggers)
+endif()
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 
 include(CPack)

@@ -4,7 +4,8 @@
 - cpack -G DEB makes exactly drivebus_<version>_<arch>.deb;
 - dpkg-deb --info and --contents accept it; the control file names the package, version,
   maintainer and Recommends: iceoryx; the maintainer scripts pass `sh -n`;
-- the conffiles list holds the given configuration files;
+- the conffiles list holds the given configuration files; a shared library comes with the
+  ldconfig trigger;
 - `dpkg -x` into a scratch root holds every path of PATHS_FILE (one a line; a trailing *
   matches any suffix, as in libdrivebus.so.0*) and every concrete /usr, /etc and /lib file
   the man pages name;
@@ -87,6 +88,14 @@ def main(argv):
     for c in conffiles:
         if c not in listed:
             problems.append(f"conffiles: {c} missing (has {listed})")
+    shared = glob.glob(os.path.join(root, "usr/lib/*/lib*.so.*")) if os.path.isdir(root) else []
+    if shared:
+        triggers = ""
+        if os.path.exists(os.path.join(control, "triggers")):
+            with open(os.path.join(control, "triggers"), encoding="utf-8") as f:
+                triggers = f.read()
+        if not re.search(r"^activate-noawait ldconfig$", triggers, flags=re.M):
+            problems.append(f"{os.path.basename(shared[0])} is in the package, but no ldconfig trigger")
     for script in ("postinst", "prerm", "postrm"):
         path = os.path.join(control, script)
         if not os.path.exists(path):
