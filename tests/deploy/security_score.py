@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """`systemd-analyze security --offline=yes` of a drivebus unit: fail above a maximum exposure,
 and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlockall, the
-serial and GPIO devices, /tmp and /dev/shm for iceoryx), so the score cannot be bought by
-breaking the daemon.
+serial and GPIO devices, /tmp and /dev/shm for iceoryx), or what the RouDi of
+drivebus-roudi.service needs (/tmp, /dev/shm, the host's users and groups, local sockets), so
+the score cannot be bought by breaking the service.
 
 usage: security_score.py SYSTEMD_ANALYZE UNIT MAX_EXPOSURE
 """
@@ -28,8 +29,32 @@ def settings(path):
     return values
 
 
+def roudi_needs(s):
+    last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
+    words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
+    problems = []
+    if last("PrivateTmp") in ("yes", "true", "1"):
+        problems.append("PrivateTmp=yes hides /tmp/roudi and the clients' sockets")
+    if last("PrivateUsers") in ("yes", "true", "1"):
+        problems.append("PrivateUsers=yes unmaps the groups the segments' ACLs name")
+    if last("ProtectSystem") == "strict":
+        rw = words("ReadWritePaths")
+        for path in ("/tmp", "/dev/shm"):
+            if path not in rw and "-" + path not in rw:
+                problems.append(f"ProtectSystem=strict without ReadWritePaths={path}")
+    families = words("RestrictAddressFamilies")
+    if families and ("AF_UNIX" not in families if not families[0].startswith("~") else "~AF_UNIX" in families):
+        problems.append("RestrictAddressFamilies= takes AF_UNIX away (the iceoryx sockets)")
+    for key, value in (("User", "drivebus"), ("Group", "drivebus"), ("UMask", "0007")):
+        if last(key) != value:
+            problems.append(f"{key}= is '{last(key)}', not {value}")
+    return problems
+
+
 def needs(unit):
     s = settings(unit)
+    if "iox-roudi" in " ".join(s.get("ExecStart", [])):
+        return roudi_needs(s)
     last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
     words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
     problems = []

@@ -1,0 +1,77 @@
+#!/usr/bin/env python3
+"""Apply a sysusers.d file with systemd-sysusers into a scratch root and check what it made:
+the groups drivebus, drivebusd and drivebus-control; the system user drivebus with primary
+group drivebus and shell nologin, a member of drivebusd and dialout and of nothing else of
+drivebus's (not drivebus-control: the daemon sends no requests).
+
+The scratch root starts with a group file holding dialout, as on Debian. systemd-sysusers
+exits 0 after a line it ignores, so any message naming the file fails too.
+
+usage: check_sysusers.py SYSTEMD_SYSUSERS FILE
+"""
+import os
+import subprocess
+import sys
+import tempfile
+
+GROUPS = ("drivebus", "drivebusd", "drivebus-control")
+MEMBER_OF = {"drivebusd", "dialout"}
+NOT_MEMBER_OF = {"drivebus-control"}
+
+
+def read_db(path):
+    with open(path, encoding="utf-8") as f:
+        return {line.split(":")[0]: line.rstrip("\n").split(":") for line in f if line.strip()}
+
+
+def main(argv):
+    if len(argv) != 3:
+        print(__doc__.strip().splitlines()[-1], file=sys.stderr)
+        return 2
+    tool, conf = argv[1], os.path.abspath(argv[2])
+    problems = []
+    with tempfile.TemporaryDirectory(prefix="drivebus-sysusers-") as root:
+        os.mkdir(os.path.join(root, "etc"))
+        with open(os.path.join(root, "etc", "group"), "w", encoding="utf-8") as f:
+            f.write("root:x:0:\ndialout:x:20:\n")
+        with open(os.path.join(root, "etc", "passwd"), "w", encoding="utf-8") as f:
+            f.write("root:x:0:0:root:/root:/bin/sh\n")
+        proc = subprocess.run([tool, f"--root={root}", conf], capture_output=True, text=True, check=False)
+        out = (proc.stdout + proc.stderr).strip()
+        if out:
+            print(out)
+        if proc.returncode != 0:
+            problems.append(f"systemd-sysusers exit {proc.returncode}")
+        problems += [f"systemd-sysusers: {line}" for line in out.splitlines() if os.path.basename(conf) in line]
+        groups = read_db(os.path.join(root, "etc", "group"))
+        users = read_db(os.path.join(root, "etc", "passwd"))
+
+    for g in GROUPS:
+        if g not in groups:
+            problems.append(f"no group {g}")
+    user = users.get("drivebus")
+    if user is None:
+        problems.append("no user drivebus")
+    else:
+        if groups.get("drivebus") and user[3] != groups["drivebus"][2]:
+            problems.append(f"user drivebus has primary GID {user[3]}, not drivebus's {groups['drivebus'][2]}")
+        if int(user[2]) >= 1000:
+            problems.append(f"user drivebus has UID {user[2]}, not a system UID")
+        if not user[6].endswith("nologin"):
+            problems.append(f"user drivebus has shell {user[6]}, not nologin")
+    member_of = {name for name, entry in groups.items() if "drivebus" in entry[3].split(",")}
+    for g in sorted(MEMBER_OF - member_of):
+        problems.append(f"user drivebus is not a member of {g}")
+    for g in sorted(NOT_MEMBER_OF & member_of):
+        problems.append(f"user drivebus is a member of {g}")
+
+    for p in problems:
+        print(f"{argv[2]}: {p}")
+    if problems:
+        return 1
+    print(f"{argv[2]}: groups {', '.join(GROUPS)}; user drivebus in {', '.join(sorted(member_of))}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
