@@ -32,6 +32,10 @@ std::expected<void, Rejection> check_readable(const Profile& profile, std::uint1
     if (profile.registers.empty() || in_block(profile, 3, start, count)) {
         return {};
     }
+    if (const auto* block = profile.block(3); block != nullptr && start == block->address) {
+        return reject(RejectReason::Quantity, fmt::format("the read block at {} takes {}-{} words", hex(start),
+                                                          block->min_quantity, block->max_quantity));
+    }
     for (std::uint32_t a = start; a < static_cast<std::uint32_t>(start) + count; ++a) {
         const auto address = static_cast<std::uint16_t>(a);
         const auto* r = profile.find(address);

@@ -831,5 +831,58 @@ TEST(Read, IndirectWithinTheBlock) {
     EXPECT_EQ(addresses(poll), (std::vector<std::uint16_t>{0xFD00, 0xFD01}));
 }
 
+// ---- [ipc] and the control lease ----
+
+TEST(Ipc, Defaults) {
+    const auto c = parsed(kValid);
+    EXPECT_EQ(c.ipc.roudi, RouDiMode::Auto);
+    EXPECT_EQ(c.ipc.watch_group, "drivebus");
+    EXPECT_EQ(c.ipc.control_group, "drivebus-control");
+    EXPECT_EQ(c.ipc.daemon_group, "drivebusd");
+    EXPECT_EQ(c.ipc.max_clients, 32U);
+}
+
+TEST(Ipc, Keys) {
+    const auto c = parsed(std::string("[ipc]\nroudi = \"external\"\nwatch_group = \"plant\"\n"
+                                      "control_group = \"operators\"\ndaemon_group = \"busd\"\nmax_clients = 8\n") +
+                          std::string(kValid));
+    EXPECT_EQ(c.ipc.roudi, RouDiMode::External);
+    EXPECT_EQ(c.ipc.watch_group, "plant");
+    EXPECT_EQ(c.ipc.control_group, "operators");
+    EXPECT_EQ(c.ipc.daemon_group, "busd");
+    EXPECT_EQ(c.ipc.max_clients, 8U);
+}
+
+TEST(Ipc, BadKeys) {
+    const std::string bus(kValid);
+    EXPECT_TRUE(rejected("[ipc]\nroudi = \"inside\"\n" + bus, {"roudi", "inside"}));
+    EXPECT_TRUE(rejected("[ipc]\nwatch_group = \"two words\"\n" + bus, {"watch_group", "two words"}));
+    EXPECT_TRUE(rejected("[ipc]\ncontrol_group = \"drivebus\"\n" + bus, {"three different groups"}));
+    EXPECT_TRUE(rejected("[ipc]\nmax_clients = 0\n" + bus, {"max_clients"}));
+    EXPECT_TRUE(rejected("[ipc]\nsegments = 2\n" + bus, {"segments"}));
+}
+
+TEST(Lease, DefaultsFollowTheProfile) {
+    const auto pump = parsed(kValid).buses.at(0).drives.at(0);
+    EXPECT_EQ(pump.lease, std::chrono::seconds(1));
+    EXPECT_EQ(pump.fallback, LeaseFallback::Stop);  // the ATV21 profile defines a stop command word
+    const auto fan = parsed(kFan).buses.at(0).drives.at(0);
+    EXPECT_EQ(fan.fallback, LeaseFallback::Hold);  // the ATV58 profile gives no command word values
+}
+
+TEST(Lease, Keys) {
+    const auto pump = parsed(with_drive("lease = \"250ms\"\nfallback = \"freewheel\"")).buses.at(0).drives.at(0);
+    EXPECT_EQ(pump.lease, std::chrono::milliseconds(250));
+    EXPECT_EQ(pump.fallback, LeaseFallback::Freewheel);
+    EXPECT_EQ(parsed(with_drive("fallback = \"hold\"")).buses.at(0).drives.at(0).fallback, LeaseFallback::Hold);
+}
+
+TEST(Lease, BadKeys) {
+    EXPECT_TRUE(rejected(with_drive("lease = \"10ms\""), {"drive 'pump'", "lease"}));
+    EXPECT_TRUE(rejected(with_drive("fallback = \"brake\""), {"drive 'pump'", "fallback", "brake"}));
+    EXPECT_TRUE(rejected(edited(kFan, "profile = \"atv58\"\n", "profile = \"atv58\"\nfallback = \"stop\"\n"),
+                         {"drive 'fan'", "fallback \"stop\"", "atv58", "hold"}));
+}
+
 }  // namespace
 }  // namespace drivebus::config

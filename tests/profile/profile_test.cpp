@@ -754,5 +754,52 @@ TEST(SearchPath, FileMustDeclareItsOwnType) {
         << p.error().message;
 }
 
+
+// ---- [control] ----
+
+TEST(Control, Atv21CommandWordsFromTheGuide) {
+    const auto p = load_real("atv21");
+    ASSERT_TRUE(p.control.has_value());
+    const auto& c = *p.control;
+    EXPECT_EQ(c.lease_registers, (std::vector<std::string>{"FA00", "FA01"}));
+    EXPECT_EQ(c.command, "FA00");
+    EXPECT_EQ(c.reference, "FA01");
+    // Section 8.4: 0xC400 runs forward and 0xC600 in reverse with Modbus priority; bit 10 is
+    // run, bit 11 freewheel, bit 13 fault reset.
+    EXPECT_EQ(c.run_forward, 0xC400);
+    EXPECT_EQ(c.run_reverse, 0xC600);
+    EXPECT_EQ(c.stop, 0xC000);
+    EXPECT_EQ(c.freewheel, 0xC800);
+    EXPECT_EQ(c.fault_reset, 0xE000);
+    EXPECT_EQ(c.status_bits.at("running"), 10U);
+    EXPECT_EQ(c.status_bits.at("fault"), 1U);
+}
+
+TEST(Control, Atv58HasNoCommandWords) {
+    const auto p = load_real("atv58");
+    ASSERT_TRUE(p.control.has_value());
+    EXPECT_EQ(p.control->lease_registers, (std::vector<std::string>{"W400", "W401"}));
+    EXPECT_FALSE(p.control->stop.has_value());
+    EXPECT_FALSE(p.control->run_forward.has_value());
+}
+
+TEST(Control, NamesTakeTheRegistersSpelling) {
+    const auto p = parse_profile(std::string(kValid) + "\n[control]\nlease_registers = [\"fa01\"]\nreference = \"fa01\"\n",
+                                 "test.toml");
+    ASSERT_TRUE(p) << p.error().message;
+    EXPECT_EQ(p->control->reference, "FA01");
+    EXPECT_EQ(p->control->lease_registers.at(0), "FA01");
+}
+
+TEST(Control, Rejections) {
+    const std::string base(kValid);
+    EXPECT_TRUE(rejected(base + "\n[control]\ncommand = \"XX99\"\n", {"control", "XX99", "not a register"}));
+    EXPECT_TRUE(rejected(base + "\n[control]\nreference = \"ST\"\n", {"control", "ST", "not writable"}));
+    EXPECT_TRUE(rejected(base + "\n[control]\nstop = 3\n", {"control", "no command register"}));
+    EXPECT_TRUE(rejected(base + "\n[control]\ncommand = \"FA01\"\nstop = 70000\n", {"control", "stop"}));
+    EXPECT_TRUE(rejected(base + "\n[control]\nbrake = 1\n", {"control", "brake"}));
+    EXPECT_TRUE(rejected(base + "\n[control]\nstatus_bits = { running = 16 }\n", {"status_bits", "running"}));
+}
+
 }  // namespace
 }  // namespace drivebus

@@ -1,0 +1,308 @@
+// The pure half of drivebusd's iceoryx side: what a request must pass before the wire
+// (admission), the control lease, and the payloads built from the master's state.
+#include <gtest/gtest.h>
+
+#include "config/config.hpp"
+#include "ipc/admission.hpp"
+#include "ipc/convert.hpp"
+#include "ipc/lease.hpp"
+
+namespace drivebus::ipc {
+namespace {
+
+using namespace std::chrono_literals;
+using shm::RejectReason;
+
+constexpr std::string_view kConfig = R"([[bus]]
+name = "line1"
+device = "/dev/ttyUSB0"
+parity = "none"
+  [[bus.drive]]
+  name = "pump"
+  address = 1
+  profile = "atv21"
+  lease = "500ms"
+  [[bus.drive]]
+  name = "fan"
+  address = 2
+  profile = "atv58"
+)";
+
+config::BusConfig bus() {
+    config::LoadOptions options;
+    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
+    auto c = config::parse_config(kConfig, "test.toml", options);
+    if (!c) {
+        ADD_FAILURE() << c.error().message;
+        return {};
+    }
+    return c->buses.at(0);
+}
+
+shm::Request request(shm::RequestKind kind, std::string_view drive, std::uint16_t start,
+                     std::initializer_list<std::uint16_t> values = {}, std::uint16_t count = 0) {
+    shm::Request r;
+    r.size = sizeof r;
+    r.kind = kind;
+    shm::assign(r.drive, drive);
+    r.start = start;
+    std::size_t i = 0;
+    for (const auto v : values) {
+        r.values.at(i++) = v;
+    }
+    r.count = count != 0 ? count : static_cast<std::uint16_t>(values.size());
+    return r;
+}
+
+RejectReason reason_of(const config::BusConfig& b, const shm::Request& r) {
+    const auto a = admit(b, r);
+    return a ? RejectReason::None : a.error().reason;
+}
+
+TEST(Admission, AReadBecomesAnFc03ToTheDrivesAddress) {
+    const auto b = bus();
+    const auto a = admit(b, request(shm::RequestKind::Read, "pump", 0xFD00, {}, 1));
+    ASSERT_TRUE(a) << a.error().why;
+    EXPECT_EQ(a->drive, 0U);
+    EXPECT_EQ(a->request.address, 1);
+    EXPECT_EQ(a->request.pdu, rtu::Request(rtu::ReadHoldingRegisters{0xFD00, 1}));
+    EXPECT_FALSE(a->touches_control);
+}
+
+TEST(Admission, DrivesByAddressWhenNoNameIsGiven) {
+    const auto b = bus();
+    auto r = request(shm::RequestKind::Read, "", 0x01C2, {}, 3);  // W450..W452
+    r.address = 2;
+    const auto a = admit(b, r);
+    ASSERT_TRUE(a) << a.error().why;
+    EXPECT_EQ(a->drive, 1U);
+}
+
+TEST(Admission, EveryRejectionKind) {
+    const auto b = bus();
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "valve", 0xFD00, {}, 1)), RejectReason::UnknownDrive);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1234, {}, 1)), RejectReason::UnknownRegister);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Write, "pump", 0xFD00, {1})), RejectReason::ReadOnly);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Write, "pump", 0x0803, {101})), RejectReason::ValueOutOfRange);
+    // The ATV21 reads one register per plain FC03.
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0xFD00, {}, 2)), RejectReason::Quantity);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "fan", 0x01C2, {}, 126)), RejectReason::Quantity);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0xFD00, {}, 0)), RejectReason::Quantity);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Identify, "fan", 0)), RejectReason::Unsupported);
+    auto fc16 = request(shm::RequestKind::Write, "pump", 0x0803, {10});
+    fc16.function = 16;  // FC16 of one word is fine by the spec, and the ATV21 takes it
+    EXPECT_EQ(reason_of(b, fc16), RejectReason::None);
+    auto bad = request(shm::RequestKind::Read, "pump", 0xFD00, {}, 1);
+    bad.version = 99;
+    EXPECT_EQ(reason_of(b, bad), RejectReason::Malformed);
+    bad = request(shm::RequestKind::Read, "pump", 0xFD00, {}, 1);
+    bad.size = 12;
+    EXPECT_EQ(reason_of(b, bad), RejectReason::Malformed);
+}
+
+TEST(Admission, TheIndirectBlocksKeepTheirOwnRules) {
+    const auto b = bus();
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 5)), RejectReason::None);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 6)), RejectReason::Quantity);
+}
+
+TEST(Admission, CommandAndReferenceWritesNeedTheLease) {
+    const auto b = bus();
+    const auto a = admit(b, request(shm::RequestKind::Write, "pump", 0xFA01, {3000}));
+    ASSERT_TRUE(a);
+    EXPECT_TRUE(a->touches_control);
+    EXPECT_EQ(a->request.pdu, rtu::Request(rtu::WriteSingleRegister{0xFA01, 3000}));
+    EXPECT_FALSE(admit(b, request(shm::RequestKind::Write, "pump", 0xFA51, {3}))->touches_control);
+}
+
+TEST(Admission, BroadcastsMustSuitEveryDriveOnTheBus) {
+    const auto b = bus();
+    // FA01 is the ATV21's reference, but the ATV58 on the same bus has no such register.
+    const auto a = admit(b, request(shm::RequestKind::Broadcast, "", 0xFA01, {0}));
+    ASSERT_FALSE(a);
+    EXPECT_EQ(a.error().reason, RejectReason::UnknownRegister);
+    EXPECT_NE(a.error().why.find("atv58"), std::string::npos) << a.error().why;
+}
+
+TEST(Admission, ProbesReachAnyAddress) {
+    const auto b = bus();
+    auto r = request(shm::RequestKind::Probe, "", 0, {}, 0);
+    r.address = 17;
+    const auto a = admit(b, r);
+    ASSERT_TRUE(a);
+    EXPECT_EQ(a->request.address, 17);
+    EXPECT_EQ(a->drive, kBroadcast);  // not a configured drive
+    r.address = 0;
+    EXPECT_EQ(reason_of(b, r), RejectReason::UnknownDrive);
+    r.address = 248;
+    EXPECT_EQ(reason_of(b, r), RejectReason::UnknownDrive);
+}
+
+TEST(Admission, LeaseOperationsStayOffTheWire) {
+    const auto b = bus();
+    const auto a = admit(b, request(shm::RequestKind::LeaseRenew, "pump", 0));
+    ASSERT_TRUE(a);
+    EXPECT_FALSE(a->on_wire);
+}
+
+// ---- leases ----
+
+TEST(Lease, OneHolderAtATime) {
+    const auto b = bus();
+    LeaseTable t(b);
+    const rtu::Instant t0{};
+    EXPECT_TRUE(t.acquire(0, 11, "a", false, t0).allowed);
+    const auto other = t.acquire(0, 22, "b", false, t0 + 100ms);
+    EXPECT_FALSE(other.allowed);
+    EXPECT_EQ(other.holder, 11U);
+    EXPECT_EQ(other.holder_name, "a");
+    // Other drives are free.
+    EXPECT_TRUE(t.acquire(1, 22, "b", false, t0).allowed);
+    // Taking it over is explicit.
+    const auto taken = t.acquire(0, 22, "b", true, t0 + 100ms);
+    EXPECT_TRUE(taken.allowed);
+    EXPECT_TRUE(taken.taken_over);
+    EXPECT_FALSE(t.renew(0, 11, t0 + 150ms).allowed);
+}
+
+TEST(Lease, RenewalKeepsItAndExpiryHappensOnceAtTheDeadline) {
+    const auto b = bus();
+    LeaseTable t(b);
+    const rtu::Instant t0{};
+    const auto d = t.acquire(0, 11, "a", false, t0);
+    EXPECT_EQ(d.lease_ms, 500U);
+    EXPECT_EQ(t.next_deadline(), t0 + 500ms);
+    EXPECT_TRUE(t.renew(0, 11, t0 + 400ms).allowed);
+    EXPECT_TRUE(t.expire(t0 + 899ms).empty());
+    const auto gone = t.expire(t0 + 900ms);
+    ASSERT_EQ(gone.size(), 1U);
+    EXPECT_EQ(gone[0].drive, 0U);
+    EXPECT_EQ(gone[0].holder, 11U);
+    EXPECT_EQ(gone[0].fallback, config::LeaseFallback::Stop);
+    EXPECT_TRUE(t.expire(t0 + 2s).empty());
+    EXPECT_EQ(t.status(0).state, shm::LeaseState::Expired);
+    EXPECT_EQ(t.status(0).expiries, 1U);
+    EXPECT_FALSE(t.next_deadline().has_value());
+    // Too late to renew; a new write takes a fresh lease.
+    EXPECT_FALSE(t.renew(0, 11, t0 + 2s).allowed);
+    EXPECT_TRUE(t.acquire(0, 22, "b", false, t0 + 2s).allowed);
+    EXPECT_FALSE(t.acquire(0, 22, "b", false, t0 + 2s).taken_over);
+}
+
+TEST(Lease, ReleaseMeansNoFallback) {
+    const auto b = bus();
+    LeaseTable t(b);
+    const rtu::Instant t0{};
+    (void)t.acquire(0, 11, "a", false, t0);
+    EXPECT_FALSE(t.release(0, 22));
+    EXPECT_TRUE(t.release(0, 11));
+    EXPECT_TRUE(t.expire(t0 + 10s).empty());
+    EXPECT_EQ(t.status(0).state, shm::LeaseState::Free);
+}
+
+TEST(Lease, BroadcastsCheckEveryDrive) {
+    const auto b = bus();
+    LeaseTable t(b);
+    EXPECT_FALSE(t.other_holder(11).has_value());
+    (void)t.acquire(1, 22, "b", false, rtu::Instant{});
+    EXPECT_EQ(t.other_holder(11), 22U);
+    EXPECT_FALSE(t.other_holder(22).has_value());
+}
+
+// ---- payloads ----
+
+TEST(Convert, SnapshotCarriesValuesValidityAndTimesSorted) {
+    master::DriveSnapshot in;
+    in.bus = "line1";
+    in.name = "pump";
+    in.address = 1;
+    in.profile = "atv21";
+    in.health = master::Health::Online;
+    in.sequence = 7;
+    in.counters.requests = 10;
+    in.counters.exceptions[2] = 3;
+    const rtu::Instant t{std::chrono::nanoseconds(123456789)};
+    in.registers[0xFD01] = {0x6404, true, t};
+    in.registers[0xFD00] = {3000, true, t};
+    in.registers[0xFC91] = {0, false, {}};
+    shm::DriveSnapshot out;
+    fill_snapshot(in, out);
+    EXPECT_TRUE(shm::compatible(out));
+    EXPECT_EQ(shm::view(out.name), "pump");
+    EXPECT_EQ(shm::view(out.profile), "atv21");
+    EXPECT_EQ(out.health, shm::DriveHealth::Online);
+    EXPECT_EQ(out.counters.exceptions, 3U);
+    ASSERT_EQ(out.register_count, 3);
+    EXPECT_EQ(out.registers[0].address, 0xFC91);
+    EXPECT_EQ(out.registers[0].valid, 0);
+    EXPECT_EQ(out.registers[1].address, 0xFD00);
+    EXPECT_EQ(out.registers[1].value, 3000);
+    EXPECT_EQ(out.registers[1].time_ns, 123456789);
+    const auto* fd01 = out.find(0xFD01);
+    ASSERT_TRUE(fd01 != nullptr);
+    EXPECT_EQ(fd01->value, 0x6404);
+    EXPECT_TRUE(out.find(0x1234) == nullptr);
+}
+
+TEST(Convert, ResponsesCarryReadValuesExceptionsAndIdentity) {
+    master::Result r;
+    r.outcome = master::Outcome::Ok;
+    r.attempts = 2;
+    r.response = rtu::ReadHoldingRegistersResponse{rtu::RegisterValues{1, 2, 3}};
+    shm::Response out;
+    fill_response(r, out);
+    EXPECT_EQ(out.status, shm::Status::Ok);
+    EXPECT_EQ(out.count, 3);
+    EXPECT_EQ(out.values[2], 3);
+    EXPECT_EQ(out.attempts, 2);
+
+    r.outcome = master::Outcome::Exception;
+    r.response = rtu::ExceptionResponse{3, rtu::ExceptionCode::IllegalDataAddress};
+    shm::Response ex;
+    fill_response(r, ex);
+    EXPECT_EQ(ex.status, shm::Status::Exception);
+    EXPECT_EQ(ex.exception, 2);
+
+    rtu::DeviceIdentificationResponse id;
+    id.objects = {{0, "Schneider Electric"}, {1, "ATV21H075M3X"}, {2, "0201"}};
+    r.outcome = master::Outcome::Ok;
+    r.response = id;
+    shm::Response ident;
+    fill_response(r, ident);
+    EXPECT_EQ(shm::view(ident.identity[1]), "ATV21H075M3X");
+
+    for (const auto& [outcome, status] : {std::pair{master::Outcome::Timeout, shm::Status::Timeout},
+                                         {master::Outcome::BadFrame, shm::Status::BadFrame},
+                                         {master::Outcome::EchoMismatch, shm::Status::BadFrame},
+                                         {master::Outcome::BusDown, shm::Status::BusDown}}) {
+        master::Result f;
+        f.outcome = outcome;
+        shm::Response o;
+        fill_response(f, o);
+        EXPECT_EQ(o.status, status);
+    }
+}
+
+TEST(Convert, BusStatusListsTheDrivesAndTheirHealth) {
+    const auto b = bus();
+    master::BusStatus in;
+    in.up = true;
+    in.counters.replies = 42;
+    in.reply_latency.add(std::chrono::microseconds(10));
+    in.reply_latency.add(std::chrono::microseconds(30));
+    shm::BusStatus out;
+    fill_status(b, in, {shm::DriveHealth::Online, shm::DriveHealth::Absent}, out);
+    EXPECT_TRUE(shm::compatible(out));
+    EXPECT_EQ(out.up, 1);
+    EXPECT_EQ(shm::view(out.format), "8N1");
+    EXPECT_EQ(out.drive_count, 2);
+    EXPECT_EQ(out.drives_online, 1);
+    EXPECT_EQ(shm::view(out.drives[1].name), "fan");
+    EXPECT_EQ(out.drives[1].health, shm::DriveHealth::Absent);
+    EXPECT_EQ(out.counters.replies, 42U);
+    EXPECT_EQ(out.reply_latency.mean_ns, 20000);
+    EXPECT_EQ(out.reply_latency.max_ns, 30000);
+}
+
+}  // namespace
+}  // namespace drivebus::ipc
