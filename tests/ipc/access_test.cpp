@@ -1,0 +1,163 @@
+// Who may watch and who may command, with real users: drivebusd runs as its own user, a
+// viewer is in the watch group only, an operator in the control group too. The shared memory
+// decides: the viewer gets no memory to write a request into, even with a program that asks
+// iceoryx directly instead of going through libdrivebus.
+//
+// Needs root, to create the test users and groups (once; they stay) and to start each
+// process as one of them with setpriv.
+#include <gtest/gtest.h>
+
+#include <grp.h>
+#include <pwd.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim_process.hpp"
+
+namespace drivebus::test {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+constexpr const char* kWatch = "dbt-watch";
+constexpr const char* kControl = "dbt-control";
+constexpr const char* kDaemonGroup = "dbt-daemon";
+constexpr const char* kDaemonUser = "dbt-daemon";
+constexpr const char* kViewer = "dbt-viewer";
+constexpr const char* kOperator = "dbt-operator";
+
+void run_or_throw(const std::vector<std::string>& argv) {
+    const auto [status, out] = run_program(argv);
+    if (status != 0) {
+        throw std::runtime_error(argv.front() + " failed: " + out);
+    }
+}
+
+void ensure_group(const char* name) {
+    if (::getgrnam(name) == nullptr) {
+        run_or_throw({"/usr/sbin/groupadd", "--system", name});
+    }
+}
+
+// Every user's primary group is the watch group: iceoryx's RouDi answers a process through a
+// socket made with the process's effective group, so it must be RouDi's.
+void ensure_user(const char* name, const std::string& extra_groups) {
+    if (::getpwnam(name) == nullptr) {
+        std::vector<std::string> argv = {"/usr/sbin/useradd", "--system", "--no-create-home", "--shell",
+                                         "/usr/sbin/nologin", "--gid", kWatch};
+        if (!extra_groups.empty()) {
+            argv.insert(argv.end(), {"--groups", extra_groups});
+        }
+        argv.emplace_back(name);
+        run_or_throw(argv);
+    }
+}
+
+std::vector<std::string> as(const char* user, std::vector<std::string> argv) {
+    std::vector<std::string> out = {"/usr/bin/setpriv", std::string("--reuid=") + user,
+                                    std::string("--regid=") + kWatch, "--init-groups", "--"};
+    out.insert(out.end(), argv.begin(), argv.end());
+    return out;
+}
+
+bool roudi_file_exists() {
+    std::error_code ec;
+    return fs::exists("/tmp/roudi", ec);
+}
+
+class Access : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (::geteuid() != 0) {
+            GTEST_SKIP() << "needs root to create the test users and switch to them";
+        }
+        for (const auto* g : {kWatch, kControl, kDaemonGroup}) {
+            ensure_group(g);
+        }
+        ensure_user(kDaemonUser, kDaemonGroup);
+        ensure_user(kViewer, "");
+        ensure_user(kOperator, kControl);
+
+        dir_ = fs::temp_directory_path() / ("drivebus-access-" + std::to_string(::getpid()));
+        fs::create_directories(dir_ / "sim");
+        fs::permissions(dir_, fs::perms::all);
+        sim_ = std::make_unique<SimProcess>(std::vector<std::string>{"--drive", "1:atv21"}, dir_ / "sim");
+        // The pty is root's: let drivebusd's user open it.
+        fs::permissions(fs::canonical(sim_->link()), fs::perms::owner_read | fs::perms::owner_write |
+                                                         fs::perms::group_read | fs::perms::group_write |
+                                                         fs::perms::others_read | fs::perms::others_write);
+        bus_ = "a" + std::to_string(::getpid());
+        const auto config = dir_ / "drivebusd.toml";
+        std::ofstream(config) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
+                              << "[ipc]\nroudi = \"embedded\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
+                              << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
+                              << "[[bus]]\nname = \"" << bus_ << "\"\ndevice = \"" << sim_->link().string()
+                              << "\"\nparity = \"none\"\nretries = 3\n"
+                                 "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
+                                 "    [[bus.drive.poll]]\n    registers = [\"FD00\"]\n    period = \"50ms\"\n";
+        fs::permissions(config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
+        ASSERT_FALSE(roudi_file_exists()) << "a RouDi runs already";
+        daemon_ = std::make_unique<Child>(
+            as(kDaemonUser, {DRIVEBUSD_PATH, "--config", config.string(), "--profile-dir", DRIVEBUS_PROFILE_DIR}));
+        ASSERT_TRUE(wait_until([&] { return daemon_->output().find("running:") != std::string::npos; }, 10s))
+            << daemon_->output();
+    }
+    void TearDown() override {
+        daemon_.reset();
+        sim_.reset();
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+
+    std::pair<int, std::string> client(const char* user, std::vector<std::string> args) {
+        args.insert(args.begin(), {TEST_CLIENT_PATH, bus_});
+        return run_program(as(user, args));
+    }
+
+    fs::path dir_;
+    std::string bus_;
+    std::unique_ptr<SimProcess> sim_;
+    std::unique_ptr<Child> daemon_;
+};
+
+TEST_F(Access, TheDaemonSaysWhoMayDoWhat) {
+    EXPECT_NE(daemon_->output().find("watchers: group dbt-watch, requests: group dbt-control"), std::string::npos)
+        << daemon_->output();
+}
+
+TEST_F(Access, AViewerWatchesButCannotSendRequests) {
+    const auto [watched, watch_out] = client(kViewer, {"snapshots", "3"});
+    EXPECT_EQ(watched, 0) << watch_out;
+    const auto [read, read_out] = client(kViewer, {"read", "FD00", "1"});
+    EXPECT_EQ(read, 1) << read_out;
+    EXPECT_NE(read_out.find("not permitted"), std::string::npos) << read_out;
+    EXPECT_NE(read_out.find("dbt-control"), std::string::npos) << read_out;
+}
+
+TEST_F(Access, TheSharedMemoryRefusesAViewerThatAsksIcoryxDirectly) {
+    // raw_request skips libdrivebus's group check and asks iceoryx for a request chunk, to
+    // write FA51 = 888: RouDi has no writable segment for the viewer.
+    const auto [status, out] = run_program(as(kViewer, {RAW_REQUEST_PATH, bus_, "888"}));
+    EXPECT_NE(status, 0) << out;
+    EXPECT_EQ(out.find("answered"), std::string::npos) << out;
+    // The operator's same program gets through, which shows the program itself works.
+    const auto [ok, ok_out] = run_program(as(kOperator, {RAW_REQUEST_PATH, bus_, "777"}));
+    EXPECT_EQ(ok, 0) << ok_out;
+    const auto writes = sim_->command("writes 1");
+    EXPECT_NE(writes.find("0xFA51=777"), std::string::npos) << writes;
+    EXPECT_EQ(writes.find("0xFA51=888"), std::string::npos) << writes;
+}
+
+TEST_F(Access, AnOperatorWatchesAndCommands) {
+    const auto [watched, watch_out] = client(kOperator, {"snapshots", "3"});
+    EXPECT_EQ(watched, 0) << watch_out;
+    const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "321"});
+    ASSERT_EQ(wrote, 0) << write_out;
+    EXPECT_EQ(sim_->command("get 1 FA51"), "ok 321");
+}
+
+}  // namespace
+}  // namespace drivebus::test
