@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -246,6 +247,62 @@ TEST(Ipc, ClientsNoticeWhenTheDaemonIsGone) {
     stack.stop_daemon();
     ASSERT_EQ(watcher.wait(15s), 1) << watcher.output();
     EXPECT_NE(watcher.output().find("daemon gone"), std::string::npos) << watcher.output();
+}
+
+std::uint64_t sim_counter(Stack& stack, const std::string& key) {
+    const auto stats = stack.sim().command("stats");
+    const auto at = stats.find(key + "=");
+    return at == std::string::npos ? ~0ULL : std::stoull(stats.substr(at + key.size() + 1));
+}
+
+TEST(Ipc, ABroadcastReachesEveryDriveWithoutAReply) {
+    StackOptions options;
+    options.fan = false;
+    Stack stack(options);
+    Client c({stack.bus(), "broadcast", "0xFA51", "123"});
+    ASSERT_EQ(c.wait(10s), 0) << c.output();
+    EXPECT_NE(stack.sim().command("writes 1").find("0xFA51=123"), std::string::npos);
+    EXPECT_EQ(sim_counter(stack, "broadcasts"), 1U);
+}
+
+TEST(Ipc, ABroadcastThatSomeDriveCannotTakeNeverReachesTheWire) {
+    Stack stack;  // the ATV58 has no FA51
+    Client c({stack.bus(), "broadcast", "0xFA51", "5"});
+    EXPECT_EQ(c.wait(10s), 1) << c.output();
+    EXPECT_NE(c.output().find("rejected"), std::string::npos) << c.output();
+    EXPECT_EQ(sim_counter(stack, "broadcasts"), 0U);
+}
+
+// A second drivebusd: one line and exit status 1, never an abort.
+TEST(Ipc, ASecondDaemonSaysWhyItCannotStart) {
+    Stack stack;
+    const auto embedded = run_program({DRIVEBUSD_PATH, "--config", stack.config().string()});
+    EXPECT_EQ(embedded.first, 1) << embedded.second;
+    EXPECT_NE(embedded.second.find("a RouDi already runs"), std::string::npos) << embedded.second;
+
+    auto text = stack.config_text();
+    text.replace(text.find("roudi = \"embedded\""), 18, "roudi = \"auto\"");
+    const auto second = stack.dir() / "second.toml";
+    std::ofstream(second) << text;
+    const auto joined = run_program({DRIVEBUSD_PATH, "--config", second.string()});
+    EXPECT_EQ(joined.first, 1) << joined.second;
+    EXPECT_NE(joined.second.find("already served by another drivebusd (pid"), std::string::npos) << joined.second;
+    // The first one carries on.
+    Client after({stack.bus(), "read", "FD00", "2"});
+    EXPECT_EQ(after.wait(10s), 0) << after.output();
+}
+
+TEST(Ipc, ExternalWithoutARouDiSaysWhatToStart) {
+    const auto dir = std::filesystem::temp_directory_path() / ("drivebus-ext-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "d.toml") << "[realtime]\nmode = \"off\"\n[ipc]\nroudi = \"external\"\n"
+                                     "[[bus]]\nname = \"x\"\ndevice = \"/dev/null\"\nparity = \"none\"\n"
+                                     "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n";
+    const auto [status, out] = run_program({DRIVEBUSD_PATH, "--config", (dir / "d.toml").string()});
+    std::filesystem::remove_all(dir);
+    EXPECT_EQ(status, 1) << out;
+    EXPECT_NE(out.find("no RouDi answers"), std::string::npos) << out;
+    EXPECT_NE(out.find("drivebus-roudi.service"), std::string::npos) << out;
 }
 
 }  // namespace

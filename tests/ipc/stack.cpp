@@ -41,7 +41,10 @@ Stack::Stack(StackOptions options) {
         throw std::runtime_error("a RouDi already runs on this machine (/tmp/roudi): stop it before these tests");
     }
     bus_ = "t" + std::to_string(::getpid());
-    std::vector<std::string> args = {"--drive", "1:atv21", "--drive", "2:atv58"};
+    std::vector<std::string> args = {"--drive", "1:atv21"};
+    if (options.fan) {
+        args.insert(args.end(), {"--drive", "2:atv58"});
+    }
     if (!options.paced) {
         args.emplace_back("--no-pace");
     }
@@ -50,7 +53,8 @@ Stack::Stack(StackOptions options) {
     sim_ = std::make_unique<SimProcess>(args, dir_ / "sim");
     config_ = dir_ / "drivebusd.toml";
     std::ofstream(config_) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
-                              "[ipc]\nroudi = \"embedded\"\n"
+                              "[ipc]\nroudi = \""
+                           << options.roudi << "\"\n"
                               "[[bus]]\nname = \""
                            << bus_ << "\"\ndevice = \"" << sim_->link().string()
                            << "\"\nparity = \"none\"\nresponse_timeout = \"100ms\"\nretries = 3\n"
@@ -60,10 +64,13 @@ Stack::Stack(StackOptions options) {
                               "\"FC91\"]\n    indirect = true\n    period = \""
                            << options.poll_period
                            << "\"\n    [[bus.drive.poll]]\n    name = \"slow\"\n    registers = [\"FA01\", "
-                              "\"FC90\"]\n    period = \"200ms\"\n"
-                              "  [[bus.drive]]\n  name = \"fan\"\n  address = 2\n  profile = \"atv58\"\n"
-                              "    [[bus.drive.poll]]\n    registers = [\"W450\", \"W451\", \"W452\"]\n"
-                              "    period = \"100ms\"\n";
+                              "\"FC90\"]\n    period = \"200ms\"\n";
+    if (options.fan) {
+        std::ofstream(config_, std::ios::app)
+            << "  [[bus.drive]]\n  name = \"fan\"\n  address = 2\n  profile = \"atv58\"\n"
+               "    [[bus.drive.poll]]\n    registers = [\"W450\", \"W451\", \"W452\"]\n"
+               "    period = \"100ms\"\n";
+    }
     daemon_ = std::make_unique<Child>(std::vector<std::string>{DRIVEBUSD_PATH, "--config", config_.string()});
     // Ready when drivebusd's RouDi answers and the daemon says it runs.
     if (!wait_until([&] { return roudi_answers() && daemon_->output().find("running:") != std::string::npos; },
@@ -93,6 +100,13 @@ std::uint16_t Stack::sim_register(int address, const std::string& reg) const {
 
 std::string Stack::daemon_output() const {
     return daemon_->output();
+}
+
+std::string Stack::config_text() const {
+    std::ifstream in(config_);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
 }
 
 int Stack::stop_daemon() {

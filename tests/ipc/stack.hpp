@@ -18,6 +18,8 @@ struct StackOptions {
     std::string drive_extra;            // extra keys for the pump's [[bus.drive]] table
     std::string poll_period = "50ms";
     bool paced = true;
+    bool fan = true;         // the ATV58 at address 2
+    std::string roudi = "embedded";
 };
 
 class Stack {
@@ -41,6 +43,8 @@ public:
     [[nodiscard]] std::string daemon_output() const;
     // Stops drivebusd (SIGTERM) and returns its exit status.
     int stop_daemon();
+    // The configuration text drivebusd was started with.
+    [[nodiscard]] std::string config_text() const;
 
 private:
     std::filesystem::path dir_;

@@ -3,6 +3,7 @@
 //   test_client BUS snapshots N           print "snapshot SEQ FD00" for N new pump snapshots
 //   test_client BUS read REG N            N reads of REG on the pump: "value V" each
 //   test_client BUS writes REG V...       one write per value, in order, each acknowledged: "ok V"
+//   test_client BUS broadcast ADDR V...   one broadcast write (FC06 or FC16) to address 0: "sent"
 //   test_client BUS flood REG             reads REG until killed: "ready" after the first
 //   test_client BUS command HZ            take the pump's lease, run forward at HZ, "holding",
 //                                         then renew until killed
@@ -13,6 +14,7 @@
 #include <cstdlib>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "drivebus/altivar.hpp"
 #include "drivebus/client.hpp"
@@ -85,6 +87,18 @@ int main(int argc, char** argv) {
             std::printf("ok %u\n", value);
         }
         (void)pump->release_control();
+        return 0;
+    }
+    if (mode == "broadcast" && argc >= 5) {
+        std::vector<std::uint16_t> values;
+        for (int i = 4; i < argc; ++i) {
+            values.push_back(static_cast<std::uint16_t>(std::strtoul(argv[i], nullptr, 0)));
+        }
+        const auto address = static_cast<std::uint16_t>(std::strtoul(argv[3], nullptr, 0));
+        if (auto ok = bus->broadcast(address, values); !ok) {
+            return fail(ok.error());
+        }
+        std::printf("sent\n");
         return 0;
     }
     if (mode == "flood" && argc == 4) {
