@@ -375,17 +375,25 @@ struct BusService::Impl {
         (void)waitset.attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED);
         (void)waitset.attachEvent(wake);
         auto next_status = sys::now();
-        master::BusStatus last{};
+        bool last_up = false;
+        std::vector<shm::DriveHealth> last_health;
         while (running.load()) {
             take_requests();
             expire_leases();
             const auto now = sys::now();
-            const auto status = loop->status();
-            if (now >= next_status || status.up != last.up) {
+            const bool up = loop->status().up;
+            std::vector<shm::DriveHealth> h;
+            {
+                std::lock_guard lock(health_mutex);
+                h = health;
+            }
+            // Once a second, and at once when the line or a drive's health changes.
+            if (now >= next_status || up != last_up || h != last_health) {
                 publish_status();
                 next_status = now + kStatusInterval;
             }
-            last.up = status.up;
+            last_up = up;
+            last_health = std::move(h);
             auto until = std::min(next_status, now + kStatusCheck);
             {
                 std::lock_guard lock(lease_mutex);
