@@ -1,6 +1,7 @@
 #include <grp.h>
 #include <pwd.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -163,6 +164,17 @@ std::expected<void, Error> ensure_runtime(const std::string& application) {
         return std::unexpected(make_error(ErrorKind::NotPermitted,
                                           "this user may not use drivebus's shared memory: join group " + group +
                                               " (usermod -aG " + group + " $USER) and log in again"));
+    }
+    // RouDi answers each process through a socket the process creates with its effective
+    // group and mode 0660: unless RouDi runs as root or as this user, that group must be RouDi's.
+    struct stat roudi {};
+    if (::stat(kRouDiSocket, &roudi) == 0 && roudi.st_uid != 0 && roudi.st_uid != ::geteuid() &&
+        roudi.st_gid != ::getegid()) {
+        const auto group = group_of(kRouDiSocket);
+        return std::unexpected(make_error(ErrorKind::NotPermitted,
+                                          "this process's effective group must be " + group +
+                                              " for drivebusd to answer it: run it with sg " + group +
+                                              " -c '...', or Group=" + group + " in its unit"));
     }
     std::call_once(once, [&] {
         iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kError,
