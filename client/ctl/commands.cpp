@@ -41,15 +41,16 @@ Bus connect(const Options& options) {
     return need(Bus::connect(options.bus, connect_options(options)), options);
 }
 
-std::string describe(const Error& error, const Drive& drive, std::string_view what, std::uint16_t start) {
-    const auto hint = rejection_hint(error, drive.profile(), what, start);
+std::string describe(const Error& error, const Drive& drive, std::string_view what, std::uint16_t start,
+                     std::size_t count) {
+    const auto hint = rejection_hint(error, drive.profile(), what, start, count);
     return hint.empty() ? error.message : error.message + "; " + hint;
 }
 
 // Fails with the error, the drive's profile adding what it knows.
 [[noreturn]] void fail_request(const Options& options, Error error, const Drive& drive, std::string_view what,
-                               std::uint16_t start, const std::string& context) {
-    error.message = describe(error, drive, what, start);
+                               std::uint16_t start, std::size_t count, const std::string& context) {
+    error.message = describe(error, drive, what, start, count);
     throw Failed{report(options, error, context)};
 }
 
@@ -61,6 +62,12 @@ std::string register_lines(const Drive& drive, std::uint16_t start, const std::v
         const auto* info = drive.info(address);
         rows.push_back(register_columns(address, values[i], info));
         bits.push_back(info != nullptr ? set_bits(*info, values[i]) : std::vector<std::string>{});
+    }
+    // No column of engineering values when no register has one.
+    if (std::ranges::all_of(rows, [](const Row& row) { return row[3].empty(); })) {
+        for (auto& row : rows) {
+            row.erase(row.begin() + 3);
+        }
     }
     // The table aligned as a whole, then each register's bits under it.
     const auto table = render_table(rows);
@@ -243,7 +250,7 @@ int run_read(const Options& options, const std::string& drive_name, const std::s
         if (values.empty()) {
             auto result = drive.read(start, count);
             if (!result) {
-                fail_request(options, result.error(), drive, "read", start, context);
+                fail_request(options, result.error(), drive, "read", start, count, context);
             }
             values = std::move(*result);
         }
@@ -309,7 +316,7 @@ int run_write(const Options& options, const std::string& drive_name, const std::
             }
         }
         if (!written) {
-            fail_request(options, written.error(), drive, "write", start, context);
+            fail_request(options, written.error(), drive, "write", start, words.size(), context);
         }
         if (options.json) {
             print(Json::object()
@@ -334,7 +341,7 @@ int run_identify(const Options& options, const std::string& drive_name) {
         const auto drive = need(bus.drive(drive_name), options, context);
         const auto identity = drive.identify();
         if (!identity) {
-            fail_request(options, identity.error(), drive, "identify", 0, context);
+            fail_request(options, identity.error(), drive, "identify", 0, 0, context);
         }
         if (options.json) {
             print(Json::object()

@@ -141,15 +141,16 @@ std::string exception_text(std::uint8_t code) {
     }
 }
 
-std::string rejection_hint(const Error& error, const Profile* profile, std::string_view what,
-                           std::uint16_t start) {
+std::string rejection_hint(const Error& error, const Profile* profile, std::string_view what, std::uint16_t start,
+                           std::size_t count) {
     if (error.kind != ErrorKind::Rejected || profile == nullptr) {
         return {};
     }
-    const auto* r = profile->find(start);
+    // The register a rejection is about is `start` only when there is one.
+    const auto* r = count == 1 ? profile->find(start) : nullptr;
     switch (error.reason) {
     case shm::RejectReason::UnknownRegister:
-        return fmt::format("profile {} lists no register {} (see {}.toml)", profile->type, hex(start), profile->type);
+        return fmt::format("profile {} does not list it (its registers: {}.toml)", profile->type, profile->type);
     case shm::RejectReason::ReadOnly:
         return r != nullptr ? fmt::format("{} can only be read", r->name) : std::string();
     case shm::RejectReason::WriteOnly:

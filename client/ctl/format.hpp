@@ -30,9 +30,10 @@ inline constexpr int kExitQueueFull = 6;
 [[nodiscard]] std::string exception_text(std::uint8_t code);
 
 // What to do about a rejection by drivebusd, from the drive's profile: "F803 takes 0..100 (0-100 s)".
-// `what` is "read", "write" or "identify"; `start` the first register. Empty when nothing to add.
+// `what` is "read", "write" or "identify"; `start` the first of `count` registers. Empty when
+// there is nothing to add.
 [[nodiscard]] std::string rejection_hint(const Error& error, const Profile* profile, std::string_view what,
-                                         std::uint16_t start);
+                                         std::uint16_t start, std::size_t count);
 
 // "500ms", "2s", "1.5s", "2min", "250us" (rounded up to whole ms); a bare number is milliseconds.
 // Must be above zero.
