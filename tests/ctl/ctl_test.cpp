@@ -51,7 +51,8 @@ std::vector<std::string> with_bus(const Stack& stack, std::vector<std::string> a
 }
 
 std::string describe(const Run& r) {
-    return "exit " + std::to_string(r.status) + "\nstdout:\n" + r.out + "stderr:\n" + r.err;
+    return "exit " + std::to_string(r.status) + (r.status == -1 ? " (killed: still running after 10 s)" : "") +
+           "\nstdout:\n" + r.out + "stderr:\n" + r.err;
 }
 
 // One line on stderr, "drivebusctl: ..." that contains `text`.
