@@ -215,7 +215,11 @@ std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now) {
             ++scheduler_.counters(job_->drive).retries;
         }
     }
-    status_.extra_gap.add(now - line_free_at());
+    // A silence is measured from the last activity on the line; before the first one since the
+    // line came up there is none to measure from.
+    if (framer_.last_activity() || last_tx_end_) {
+        status_.extra_gap.add(now - line_free_at());
+    }
     return transaction_->adu();
 }
 

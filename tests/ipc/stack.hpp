@@ -17,6 +17,7 @@ struct StackOptions {
     std::vector<std::string> sim_args;  // more drivebus-sim arguments (faults, options)
     std::string drive_extra;            // extra keys for the pump's [[bus.drive]] table
     std::string poll_period = "50ms";
+    bool polls = true;  // false: no [[bus.drive.poll]], so only clients' requests reach the line
     bool paced = true;
     bool fan = true;         // the ATV58 at address 2
     std::string roudi = "embedded";

@@ -103,6 +103,18 @@ TEST_F(EngineTest, PollsBothDrivesAndReturnsTheirValues) {
     EXPECT_EQ(engine->status().counters.timeouts, 0U);
 }
 
+TEST_F(EngineTest, TheFirstRequestAfterLineUpAddsNoExtraGap) {
+    add_fan();
+    start();
+    line->run_for(1s);
+    const auto& gap = engine->status().extra_gap;
+    EXPECT_GT(gap.count, 0U);
+    // Before the first request nothing was on the line: no silence to measure (not the time
+    // since the clock's epoch).
+    EXPECT_LT(gap.max, 1s);
+    EXPECT_LT(gap.count, engine->status().counters.transmissions);
+}
+
 TEST_F(EngineTest, KeepsTheSilenceAndNoMoreWhenTheLineIsBusy) {
     add_fan();
     config.drives.back().polls.back().period = 1ms;  // always due: the line is saturated

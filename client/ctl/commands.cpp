@@ -1,0 +1,452 @@
+#include "commands.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <functional>
+
+#include "format.hpp"
+#include "json.hpp"
+#include "table.hpp"
+#include "view.hpp"
+
+namespace drivebus::ctl {
+namespace {
+
+constexpr Milliseconds kFirstData{1000};  // how long to wait for a first status or snapshot
+
+Error error_of(ErrorKind kind, std::string message) {
+    Error e;
+    e.kind = kind;
+    e.message = std::move(message);
+    return e;
+}
+
+// A failed step: the exit status once reported.
+struct Failed {
+    int status;
+};
+
+template <typename T>
+T need(std::expected<T, Error> result, const Options& options, const std::string& context = {}) {
+    if (!result) {
+        throw Failed{report(options, result.error(), context)};
+    }
+    return std::move(*result);
+}
+
+Bus connect(const Options& options) {
+    return need(Bus::connect(options.bus, connect_options(options)), options);
+}
+
+std::string describe(const Error& error, const Drive& drive, std::string_view what, std::uint16_t start,
+                     std::size_t count) {
+    const auto hint = rejection_hint(error, drive.profile(), what, start, count);
+    return hint.empty() ? error.message : error.message + "; " + hint;
+}
+
+// Fails with the error, the drive's profile adding what it knows.
+[[noreturn]] void fail_request(const Options& options, Error error, const Drive& drive, std::string_view what,
+                               std::uint16_t start, std::size_t count, const std::string& context) {
+    error.message = describe(error, drive, what, start, count);
+    throw Failed{report(options, error, context)};
+}
+
+std::string register_lines(const Drive& drive, std::uint16_t start, const std::vector<std::uint16_t>& values) {
+    std::vector<Row> rows;
+    std::vector<std::vector<std::string>> bits;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        const auto address = static_cast<std::uint16_t>(start + i);
+        const auto* info = drive.info(address);
+        rows.push_back(register_columns(address, values[i], info));
+        bits.push_back(info != nullptr ? set_bits(*info, values[i]) : std::vector<std::string>{});
+    }
+    // No column of engineering values when no register has one.
+    if (std::ranges::all_of(rows, [](const Row& row) { return row[3].empty(); })) {
+        for (auto& row : rows) {
+            row.erase(row.begin() + 3);
+        }
+    }
+    // The table aligned as a whole, then each register's bits under it.
+    const auto table = render_table(rows);
+    std::string out;
+    std::size_t line_start = 0;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+        const auto end = table.find('\n', line_start);
+        out += table.substr(line_start, end - line_start + 1);
+        line_start = end + 1;
+        for (const auto& b : bits[i]) {
+            out += "    bit " + b + "\n";
+        }
+    }
+    return out;
+}
+
+Json registers_json(const Drive& drive, std::uint16_t start, const std::vector<std::uint16_t>& values) {
+    auto list = Json::array();
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        const auto address = static_cast<std::uint16_t>(start + i);
+        list.push(register_json(address, values[i], drive.info(address)));
+    }
+    return list;
+}
+
+// Whether writing `count` registers from `start` touches the drive's control lease registers.
+bool touches_lease(const Drive& drive, std::uint16_t start, std::size_t count) {
+    const auto* profile = drive.profile();
+    if (profile == nullptr || !profile->control) {
+        return false;
+    }
+    return std::ranges::any_of(profile->control->lease_registers, [&](const std::string& name) {
+        const auto* r = profile->find(name);
+        return r != nullptr && r->address && *r->address >= start && *r->address < static_cast<std::size_t>(start) + count;
+    });
+}
+
+Error response_error(const shm::Response& r) {
+    switch (r.status) {
+    case shm::Status::Rejected: {
+        auto e = error_of(ErrorKind::Rejected, fmt::format("drivebusd rejected the probe: {}", shm::to_string(r.reason)));
+        e.reason = r.reason;
+        return e;
+    }
+    case shm::Status::QueueFull:
+        return error_of(ErrorKind::QueueFull, "the bus's request queue is full; try again shortly");
+    case shm::Status::BusDown:
+        return error_of(ErrorKind::BusDown, "the bus is down: its serial device is not open (see journalctl -u drivebusd)");
+    case shm::Status::NotPermitted:
+        return error_of(ErrorKind::NotPermitted, "drivebusd does not let this client send requests");
+    default: return error_of(ErrorKind::BadFrame, fmt::format("unexpected answer: {}", shm::to_string(r.status)));
+    }
+}
+
+int guarded(const std::function<int()>& body) {
+    try {
+        return body();
+    } catch (const Failed& f) {
+        return f.status;
+    }
+}
+
+}  // namespace
+
+int report(const Options& options, const Error& error, const std::string& context) {
+    auto message = context.empty() ? error.message : context + ": " + error.message;
+    std::ranges::replace(message, '\n', ' ');
+    std::fflush(stdout);
+    std::fprintf(stderr, "drivebusctl: %s\n", message.c_str());
+    if (options.json) {
+        print(Json::object()
+                  .set("error", Json::object().set("kind", kind_name(error.kind)).set("message", message))
+                  .dump());
+    }
+    return exit_code(error.kind);
+}
+
+void print(const std::string& text) {
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    if (text.empty() || text.back() != '\n') {
+        std::fputc('\n', stdout);
+    }
+    std::fflush(stdout);
+}
+
+ConnectOptions connect_options(const Options& options) {
+    ConnectOptions c;
+    c.application = "drivebusctl";
+    c.request_timeout = options.timeout;
+    if (!options.profile_dir.empty()) {
+        c.profile_dir = options.profile_dir;
+    }
+    return c;
+}
+
+int run_list(const Options& options) {
+    return guarded([&] {
+        std::vector<std::string> names;
+        if (options.bus.empty()) {
+            names = need(Bus::list(connect_options(options)), options);
+        } else {
+            names = {options.bus};
+        }
+        auto buses = Json::array();
+        std::string text;
+        for (const auto& name : names) {
+            const auto bus = need(Bus::connect(name, connect_options(options)), options);
+            const auto status = need(bus.status(kFirstData), options);
+            buses.push(Json::object()
+                           .set("name", name)
+                           .set("up", status.up != 0)
+                           .set("device", shm::view(status.device))
+                           .set("baud", status.baud)
+                           .set("format", shm::view(status.format))
+                           .set("drives_online", status.drives_online)
+                           .set("drive_count", status.drive_count)
+                           .set("drives", drives_json(status)));
+            text += fmt::format("bus {}: {}, {} {} {}, {} of {} drives online\n", name, status.up != 0 ? "up" : "down",
+                                shm::view(status.device), status.baud, shm::view(status.format),
+                                status.drives_online, status.drive_count);
+            text += render_table(drive_rows(status), "  ");
+        }
+        if (names.empty()) {
+            text = "drivebusd announces no bus\n";
+        }
+        print(options.json ? Json::object().set("buses", std::move(buses)).dump() : text);
+        return kExitOk;
+    });
+}
+
+int run_status(const Options& options, const std::string& drive_name) {
+    return guarded([&] {
+        const auto bus = connect(options);
+        if (drive_name.empty()) {
+            const auto status = need(bus.status(kFirstData), options);
+            const auto now = monotonic_ns();
+            print(options.json ? bus_status_json(status, bus.can_request(), now).dump()
+                               : bus_status_text(status, bus.can_request(), now));
+            return kExitOk;
+        }
+        const auto drive = need(bus.drive(drive_name), options, "status " + drive_name);
+        const auto snapshot = need(drive.wait_snapshot(kFirstData), options, "status " + drive_name);
+        const auto now = monotonic_ns();
+        print(options.json ? drive_status_json(snapshot, drive.profile(), now).dump()
+                           : drive_status_text(snapshot, drive.profile(), now));
+        return kExitOk;
+    });
+}
+
+int run_read(const Options& options, const std::string& drive_name, const std::string& reg, std::uint16_t count) {
+    return guarded([&] {
+        const auto context = fmt::format("read {} {}", drive_name, reg);
+        const auto bus = connect(options);
+        const auto drive = need(bus.drive(drive_name), options, context);
+        const auto start = need(drive.resolve(reg), options, context);
+        std::vector<std::uint16_t> values;
+        std::string source = "bus";
+        std::int64_t snapshot_age = 0;
+        if (!bus.can_request() && count >= 1) {
+            // Watching only: what the latest snapshot holds may do.
+            if (auto s = drive.wait_snapshot(kFirstData)) {
+                for (std::uint16_t i = 0; i < count; ++i) {
+                    const auto* sample = s->find(static_cast<std::uint16_t>(start + i));
+                    if (sample == nullptr || sample->valid == 0) {
+                        values.clear();
+                        break;
+                    }
+                    values.push_back(sample->value);
+                }
+                if (!values.empty()) {
+                    source = "snapshot";
+                    snapshot_age = monotonic_ns() - s->published_ns;
+                    const auto status = need(bus.status(), options);
+                    std::fflush(stdout);
+                    std::fprintf(stderr, "drivebusctl: from the snapshot of %s ago: requests need group %s\n",
+                                 format_age(snapshot_age).c_str(), std::string(shm::view(status.control_group)).c_str());
+                }
+            }
+        }
+        if (values.empty()) {
+            auto result = drive.read(start, count);
+            if (!result) {
+                fail_request(options, result.error(), drive, "read", start, count, context);
+            }
+            values = std::move(*result);
+        }
+        if (options.json) {
+            auto doc = Json::object()
+                           .set("bus", bus.name())
+                           .set("drive", drive.name())
+                           .set("address", drive.address())
+                           .set("source", source)
+                           .set("registers", registers_json(drive, start, values));
+            if (source == "snapshot") {
+                doc.set("age_ms", snapshot_age / 1'000'000);
+            }
+            print(doc.dump());
+        } else {
+            print(register_lines(drive, start, values));
+        }
+        return kExitOk;
+    });
+}
+
+int run_write(const Options& options, const std::string& drive_name, const std::string& reg,
+              const std::vector<std::string>& value_args, bool take_over) {
+    return guarded([&] {
+        const auto context = fmt::format("write {} {}", drive_name, reg);
+        const auto bus = connect(options);
+        const auto drive = need(bus.drive(drive_name), options, context);
+        const auto start = need(drive.resolve(reg), options, context);
+        const auto texts = join_units(value_args);
+        if (texts.empty() || texts.size() > shm::kMaxWriteWords) {
+            throw Failed{report(options, error_of(ErrorKind::InvalidArgument, "a write takes 1-123 values"), context)};
+        }
+        if (static_cast<std::size_t>(start) + texts.size() - 1 > 0xFFFF) {
+            throw Failed{report(options, error_of(ErrorKind::InvalidArgument, "the values run past register 0xFFFF"),
+                                context)};
+        }
+        std::vector<std::uint16_t> words;
+        for (std::size_t i = 0; i < texts.size(); ++i) {
+            const auto* info = drive.info(static_cast<std::uint16_t>(start + i));
+            auto word = parse_value(texts[i], info);
+            if (!word) {
+                throw Failed{report(options, error_of(ErrorKind::InvalidArgument, word.error()), context)};
+            }
+            words.push_back(*word);
+        }
+        WriteOptions write_options;
+        write_options.take_over = take_over;
+        const auto written = drive.write(start, words, write_options);
+        // A write to the command or reference took the control lease (drivebusd takes it before the
+        // bus, so also when the drive then failed to answer): give it back, or drivebusd would
+        // apply the fallback once this process stops renewing it.
+        bool released = false;
+        if (touches_lease(drive, start, words.size()) &&
+            (written || (written.error().kind != ErrorKind::NotPermitted && written.error().kind != ErrorKind::Rejected &&
+                         written.error().kind != ErrorKind::InvalidArgument))) {
+            released = drive.release_control().has_value();
+            if (released) {
+                std::fflush(stdout);
+                std::fprintf(stderr,
+                             "drivebusctl: released the control lease of drive '%s' (no fallback; the values written "
+                             "stay in force)\n",
+                             drive.name().c_str());
+            }
+        }
+        if (!written) {
+            fail_request(options, written.error(), drive, "write", start, words.size(), context);
+        }
+        if (options.json) {
+            print(Json::object()
+                      .set("bus", bus.name())
+                      .set("drive", drive.name())
+                      .set("address", drive.address())
+                      .set("function", words.size() == 1 ? 6 : 16)
+                      .set("written", registers_json(drive, start, words))
+                      .set("lease_released", released)
+                      .dump());
+        } else {
+            print(fmt::format("wrote to drive '{}':\n", drive.name()) + register_lines(drive, start, words));
+        }
+        return kExitOk;
+    });
+}
+
+int run_identify(const Options& options, const std::string& drive_name) {
+    return guarded([&] {
+        const auto context = fmt::format("identify {}", drive_name);
+        const auto bus = connect(options);
+        const auto drive = need(bus.drive(drive_name), options, context);
+        const auto identity = drive.identify();
+        if (!identity) {
+            fail_request(options, identity.error(), drive, "identify", 0, 0, context);
+        }
+        if (options.json) {
+            print(Json::object()
+                      .set("bus", bus.name())
+                      .set("drive", drive.name())
+                      .set("address", drive.address())
+                      .set("vendor", identity->vendor)
+                      .set("product_code", identity->product_code)
+                      .set("revision", identity->revision)
+                      .dump());
+        } else {
+            print(render_fields({{"drive", fmt::format("{} (address {})", drive.name(), drive.address())},
+                                 {"vendor", identity->vendor},
+                                 {"product code", identity->product_code},
+                                 {"revision", identity->revision}}));
+        }
+        return kExitOk;
+    });
+}
+
+int run_scan(const Options& options, int from, int to, const std::string& reg) {
+    return guarded([&] {
+        if (from < 1 || to > 247 || from > to) {
+            throw Failed{report(options, error_of(ErrorKind::InvalidArgument,
+                                                  fmt::format("scan --from {} --to {}: addresses run 1-247, from <= to",
+                                                              from, to)))};
+        }
+        const auto start = parse_value(reg, nullptr);
+        if (!start) {
+            throw Failed{report(options, error_of(ErrorKind::InvalidArgument, start.error()), "scan --register")};
+        }
+        const auto bus = connect(options);
+        const auto status = need(bus.status(kFirstData), options);
+        const bool progress = ::isatty(STDERR_FILENO) != 0;
+        auto found = Json::array();
+        std::vector<Row> rows = {{"ADDRESS", "DRIVE", "ANSWER"}};
+        int answered = 0;
+        for (int a = from; a <= to; ++a) {
+            if (progress) {
+                std::fprintf(stderr, "\rscanning address %d (%d-%d)...", a, from, to);
+                std::fflush(stderr);
+            }
+            shm::Request r;
+            r.kind = shm::RequestKind::Probe;
+            r.address = static_cast<std::uint8_t>(a);
+            r.start = *start;
+            r.count = 1;
+            auto response = bus.request(r);
+            if (response && (response->status == shm::Status::Timeout)) {
+                continue;
+            }
+            if (progress) {
+                std::fprintf(stderr, "\r\x1b[K");
+            }
+            if (!response) {
+                throw Failed{report(options, response.error(), fmt::format("scan address {}", a))};
+            }
+            std::string answer;
+            switch (response->status) {
+            case shm::Status::Ok:
+                answer = fmt::format("value {}", response->count > 0 ? response->values[0] : 0);
+                break;
+            case shm::Status::Exception:
+                answer = fmt::format("exception {} ({})", response->exception, exception_text(response->exception));
+                break;
+            case shm::Status::BadFrame: answer = "spoiled reply (something may be there)"; break;
+            default: throw Failed{report(options, response_error(*response), fmt::format("scan address {}", a))};
+            }
+            std::string name;
+            for (std::size_t i = 0; i < status.drive_count && i < status.drives.size(); ++i) {
+                if (status.drives[i].address == a) {
+                    name = std::string(shm::view(status.drives[i].name));
+                }
+            }
+            rows.push_back({std::to_string(a), name.empty() ? "-" : name, answer});
+            if (response->status == shm::Status::BadFrame) {
+                continue;
+            }
+            ++answered;
+            auto item = Json::object().set("address", a).set("drive", name.empty() ? Json() : Json(name));
+            if (response->status == shm::Status::Ok) {
+                item.set("answer", "value").set("value", response->count > 0 ? response->values[0] : 0);
+            } else {
+                item.set("answer", "exception").set("exception", response->exception);
+            }
+            found.push(std::move(item));
+        }
+        if (progress) {
+            std::fprintf(stderr, "\r\x1b[K");
+            std::fflush(stderr);
+        }
+        if (options.json) {
+            print(Json::object()
+                      .set("bus", bus.name())
+                      .set("from", from)
+                      .set("to", to)
+                      .set("register", *start)
+                      .set("found", std::move(found))
+                      .dump());
+        } else {
+            print((rows.size() > 1 ? render_table(rows) : std::string()) +
+                  fmt::format("{} of {} addresses answered (register {})\n", answered, to - from + 1, hex(*start)));
+        }
+        return kExitOk;
+    });
+}
+
+}  // namespace drivebus::ctl

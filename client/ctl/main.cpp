@@ -1,0 +1,135 @@
+// drivebusctl: looks at and commands the drives drivebusd runs (docs/drivebusctl.md).
+//
+//   drivebusctl [--bus NAME] [--json] [--timeout DURATION] [--profile-dir DIR] COMMAND ...
+//     list | status [DRIVE] | read DRIVE REG [COUNT] | write DRIVE REG VALUE... [--take-over]
+//     identify DRIVE | watch [--interval DURATION] | scan [--from A] [--to B] [--register R]
+//
+// Exit status: 0 ok, 1 the drive failed the request, 2 usage, 3 rejected or unsupported,
+// 4 not permitted, 5 drivebusd or the bus unavailable, 6 queue full.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "drivebus/version.hpp"
+#include "format.hpp"
+
+using namespace drivebus;
+
+namespace {
+
+int usage_error(const ctl::Options& options, const std::string& message) {
+    Error e;
+    e.kind = ErrorKind::InvalidArgument;
+    e.message = message + " (see drivebusctl --help)";
+    return ctl::report(options, e);
+}
+
+// A DURATION option as milliseconds, or the usage error.
+bool duration(const ctl::Options& options, const std::string& name, const std::string& text,
+              std::chrono::milliseconds& out, int& status) {
+    const auto parsed = ctl::parse_duration(text);
+    if (!parsed) {
+        status = usage_error(options, name + ": " + parsed.error());
+        return false;
+    }
+    out = *parsed;
+    return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    ctl::Options options;
+    std::string timeout = "2s";
+    CLI::App app{"drivebusctl: look at and command the drives that drivebusd runs"};
+    app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
+    app.require_subcommand(1);
+    app.fallthrough();
+    app.add_option("--bus", options.bus, "the bus (default: the only bus drivebusd announces)");
+    app.add_flag("--json", options.json, "machine-readable output: one JSON document on stdout");
+    app.add_option("--timeout", timeout, "request timeout, like 500ms or 2s (default 2s)");
+    app.add_option("--profile-dir", options.profile_dir, "where drive profiles (TYPE.toml) are read from")
+        ->check(CLI::ExistingDirectory);
+
+    auto* list = app.add_subcommand("list", "buses and their drives");
+
+    std::string drive;
+    auto* status = app.add_subcommand("status", "the bus's status, or a drive's latest snapshot");
+    status->add_option("DRIVE", drive, "drive name or address");
+
+    std::string reg;
+    std::uint16_t count = 1;
+    auto* read = app.add_subcommand("read", "read registers on the bus");
+    read->add_option("DRIVE", drive, "drive name or address")->required();
+    read->add_option("REG", reg, "register: profile name (FD00) or number (decimal or 0x hex)")->required();
+    read->add_option("COUNT", count, "how many registers from REG (default 1)");
+
+    std::vector<std::string> values;
+    bool take_over = false;
+    auto* write = app.add_subcommand("write", "write registers (one value: FC06, several: FC16)");
+    write->add_option("DRIVE", drive, "drive name or address")->required();
+    write->add_option("REG", reg, "register: profile name (FA01) or number")->required();
+    write->add_option("VALUE", values, "raw (300, 0x12C) or with the register's unit (30Hz, '30.5 Hz')")
+        ->required();
+    write->add_flag("--take-over", take_over, "take the control lease from the client that holds it");
+
+    auto* identify = app.add_subcommand("identify", "vendor, product code and revision (FC43/14)");
+    identify->add_option("DRIVE", drive, "drive name or address")->required();
+
+    std::string interval = "200ms";
+    auto* watch = app.add_subcommand("watch", "a live table of every drive on the bus; q quits");
+    watch->add_option("--interval", interval, "refresh interval (default 200ms)");
+
+    int from = 1;
+    int to = 32;
+    std::string probe_register = "0";
+    auto* scan = app.add_subcommand("scan", "probe addresses: who answers on the bus?");
+    scan->add_option("--from", from, "first address (default 1)");
+    scan->add_option("--to", to, "last address (default 32)");
+    scan->add_option("--register", probe_register, "the register each probe reads (default 0)");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        return usage_error(options, e.what());
+    }
+
+    int bad = 0;
+    if (!duration(options, "--timeout", timeout, options.timeout, bad)) {
+        return bad;
+    }
+    if (list->parsed()) {
+        return ctl::run_list(options);
+    }
+    if (status->parsed()) {
+        return ctl::run_status(options, drive);
+    }
+    if (read->parsed()) {
+        return ctl::run_read(options, drive, reg, count);
+    }
+    if (write->parsed()) {
+        return ctl::run_write(options, drive, reg, values, take_over);
+    }
+    if (identify->parsed()) {
+        return ctl::run_identify(options, drive);
+    }
+    if (watch->parsed()) {
+        std::chrono::milliseconds every{};
+        if (!duration(options, "--interval", interval, every, bad)) {
+            return bad;
+        }
+        return ctl::run_watch(options, every);
+    }
+    if (scan->parsed()) {
+        return ctl::run_scan(options, from, to, probe_register);
+    }
+    return usage_error(options, "no command");
+}

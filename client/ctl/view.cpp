@@ -1,0 +1,412 @@
+#include "view.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <ctime>
+
+#include "format.hpp"
+
+namespace drivebus::ctl {
+namespace {
+
+std::string ms_text(std::int64_t ns) {
+    return fmt::format("{:.2f} ms", static_cast<double>(ns) / 1e6);
+}
+
+double ms_value(std::int64_t ns) {
+    return static_cast<double>(ns / 1000) / 1000.0;  // whole microseconds
+}
+
+std::string join(const std::vector<std::string>& items, std::string_view separator) {
+    std::string out;
+    for (const auto& item : items) {
+        out += (out.empty() ? "" : std::string(separator)) + item;
+    }
+    return out;
+}
+
+std::string hz_text(const DriveState& st, const Profile& profile) {
+    int places = 2;
+    if (profile.control) {
+        if (const auto* r = profile.find(profile.control->output_frequency)) {
+            places = decimals(r->scale);
+        }
+    }
+    return fmt::format("{:.{}f} Hz", *st.output_hz, places);
+}
+
+std::string fault_text(const DriveState& st) {
+    if (!st.fault_code) {
+        return st.fault ? "fault" : "";
+    }
+    if (*st.fault_code == 0) {
+        return "no fault";
+    }
+    if (!st.fault_name.empty()) {
+        return fmt::format("fault {} ({})", st.fault_name, st.fault_title);
+    }
+    return fmt::format("fault code {}", *st.fault_code);
+}
+
+std::string age_of(std::int64_t time_ns, std::int64_t now_ns) {
+    return time_ns > 0 ? format_age(now_ns - time_ns) : std::string("-");
+}
+
+Json timing_json(const shm::Timing& t) {
+    return Json::object().set("count", t.count).set("mean_ms", ms_value(t.mean_ns)).set("max_ms", ms_value(t.max_ns));
+}
+
+std::string timing_text(const shm::Timing& t, std::string_view what) {
+    if (t.count == 0) {
+        return "none yet";
+    }
+    return fmt::format("mean {}, max {} ({} {})", ms_text(t.mean_ns), ms_text(t.max_ns), t.count, what);
+}
+
+std::vector<std::pair<std::string, std::uint64_t>> bus_counters(const shm::BusCounters& c) {
+    return {{"transmissions", c.transmissions},
+            {"replies", c.replies},
+            {"timeouts", c.timeouts},
+            {"crc_errors", c.crc_errors},
+            {"gap_errors", c.gap_errors},
+            {"parity_errors", c.parity_errors},
+            {"overflows", c.overflows},
+            {"noise", c.noise},
+            {"foreign", c.foreign},
+            {"malformed", c.malformed},
+            {"echo_mismatches", c.echo_mismatches},
+            {"retries", c.retries},
+            {"broadcasts", c.broadcasts},
+            {"exceptions", c.exceptions},
+            {"queue_rejections", c.queue_rejections},
+            {"line_down", c.line_down},
+            {"requests_served", c.requests_served},
+            {"lease_expiries", c.lease_expiries}};
+}
+
+std::vector<std::pair<std::string, std::uint64_t>> drive_counters(const shm::DriveCounters& c) {
+    return {{"requests", c.requests},   {"replies", c.replies},       {"timeouts", c.timeouts},
+            {"bad_frames", c.bad_frames}, {"retries", c.retries},     {"exceptions", c.exceptions},
+            {"absent_transitions", c.absent_transitions}};
+}
+
+std::string counters_text(const std::vector<std::pair<std::string, std::uint64_t>>& counters) {
+    std::vector<std::string> parts;
+    for (const auto& [name, value] : counters) {
+        auto label = name;
+        std::ranges::replace(label, '_', ' ');
+        parts.push_back(fmt::format("{} {}", label, value));
+    }
+    return join(parts, ", ");
+}
+
+Json counters_json(const std::vector<std::pair<std::string, std::uint64_t>>& counters) {
+    auto out = Json::object();
+    for (const auto& [name, value] : counters) {
+        out.set(name, value);
+    }
+    return out;
+}
+
+const RegisterInfo* info_of(const Profile* profile, std::uint16_t address) {
+    return profile != nullptr ? profile->find(address) : nullptr;
+}
+
+std::string line_text(const shm::BusStatus& s) {
+    return fmt::format("{}, {} {}{}", shm::view(s.device), s.baud, shm::view(s.format), s.up != 0 ? "" : " (down)");
+}
+
+}  // namespace
+
+std::int64_t monotonic_ns() noexcept {
+    timespec ts{};
+    ::clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+Json register_json(std::uint16_t address, std::uint16_t raw, const RegisterInfo* info) {
+    auto out = Json::object();
+    out.set("name", info != nullptr ? Json(info->name) : Json());
+    out.set("address", address).set("hex", hex(address)).set("raw", raw);
+    if (info != nullptr) {
+        out.set("value", has_engineering(*info) ? Json(engineering(*info, raw)) : Json(raw));
+        out.set("unit", info->unit).set("title", info->title);
+        auto bits = Json::array();
+        for (const auto& b : set_bits(*info, raw)) {
+            bits.push(b);
+        }
+        out.set("bits", std::move(bits));
+        if (const auto meaning = value_meaning(*info, raw); !meaning.empty()) {
+            out.set("meaning", meaning);
+        }
+    }
+    return out;
+}
+
+bool has_state(const Profile* profile) noexcept {
+    return profile != nullptr && profile->control &&
+           (!profile->control->status.empty() || !profile->control->output_frequency.empty());
+}
+
+std::string state_text(const DriveState& st, const Profile& profile) {
+    std::vector<std::string> parts;
+    if (st.status_word) {
+        parts.push_back(st.running ? (st.reverse ? "running reverse" : "running forward") : "stopped");
+    }
+    if (st.output_hz) {
+        parts.push_back(hz_text(st, profile));
+    }
+    if (const auto fault = fault_text(st); !fault.empty()) {
+        parts.push_back(fault);
+    }
+    if (st.status_word || !st.alarms.empty()) {
+        parts.push_back(st.alarms.empty() ? (st.alarm ? "alarm" : "no alarm") : "alarms: " + join(st.alarms, ", "));
+    }
+    return parts.empty() ? std::string("not polled") : join(parts, ", ");
+}
+
+Json state_json(const DriveState& st) {
+    auto out = Json::object();
+    out.set("status_word", st.status_word ? Json(*st.status_word) : Json());
+    out.set("running", st.running).set("reverse", st.reverse).set("fault", st.fault).set("alarm", st.alarm);
+    out.set("ready", st.ready);
+    out.set("output_hz", st.output_hz ? Json(*st.output_hz) : Json());
+    out.set("fault_code", st.fault_code ? Json(*st.fault_code) : Json());
+    out.set("fault_name", st.fault_name).set("fault_title", st.fault_title);
+    auto alarms = Json::array();
+    for (const auto& a : st.alarms) {
+        alarms.push(a);
+    }
+    out.set("alarms", std::move(alarms));
+    auto flags = Json::array();
+    for (const auto& f : st.flags) {
+        flags.push(f);
+    }
+    out.set("flags", std::move(flags));
+    return out;
+}
+
+std::string lease_text(const shm::LeaseStatus& lease, std::int64_t now_ns) {
+    std::string text;
+    switch (lease.state) {
+    case shm::LeaseState::Free: text = "free"; break;
+    case shm::LeaseState::Held:
+        text = fmt::format("held by client {} (expires in {})", lease.holder, format_age(lease.expires_ns - now_ns));
+        break;
+    case shm::LeaseState::Expired:
+        text = fmt::format("expired {} ago (holder client {}), fallback {}", format_age(now_ns - lease.expired_ns),
+                           lease.holder, lease.fallback_ok != 0 ? "applied" : "not acknowledged");
+        break;
+    }
+    return fmt::format("{}; fallback {}, {} {}", text, shm::to_string(lease.fallback), lease.expiries,
+                       lease.expiries == 1 ? "expiry" : "expiries");
+}
+
+Json lease_json(const shm::LeaseStatus& lease, std::int64_t now_ns) {
+    auto out = Json::object();
+    out.set("state", shm::to_string(lease.state)).set("holder", lease.holder);
+    out.set("duration_ms", lease.duration_ms);
+    out.set("expires_in_ms", lease.state == shm::LeaseState::Held ? Json((lease.expires_ns - now_ns) / 1'000'000)
+                                                                   : Json());
+    out.set("fallback", shm::to_string(lease.fallback)).set("fallback_ok", lease.fallback_ok != 0);
+    out.set("expiries", lease.expiries);
+    return out;
+}
+
+std::string drive_status_text(const shm::DriveSnapshot& s, const Profile* profile, std::int64_t now_ns) {
+    std::vector<std::pair<std::string, std::string>> fields = {
+        {"drive", fmt::format("{} (address {}, profile {}, bus {})", shm::view(s.name), s.address,
+                              shm::view(s.profile), shm::view(s.bus))},
+        {"health", std::string(shm::to_string(s.health))},
+        {"snapshot", fmt::format("#{}, {} ago", s.sequence, format_age(now_ns - s.published_ns))},
+    };
+    if (has_state(profile)) {
+        fields.emplace_back("state", state_text(decode_state(*profile, s), *profile));
+    }
+    fields.emplace_back("lease", lease_text(s.lease, now_ns));
+    fields.emplace_back("counters", counters_text(drive_counters(s.counters)));
+    std::string out = render_fields(fields);
+    std::vector<Row> rows = {{"NAME", "ADDRESS", "RAW", "VALUE", "VALID", "AGE", "TITLE"}};
+    for (std::size_t i = 0; i < s.register_count && i < s.registers.size(); ++i) {
+        const auto& r = s.registers[i];
+        auto columns = register_columns(r.address, r.value, info_of(profile, r.address));
+        rows.push_back({columns[0], columns[1], columns[2], columns[3], r.valid != 0 ? "yes" : "no",
+                        age_of(r.time_ns, now_ns), columns[4]});
+    }
+    out += "\n" + render_table(rows);
+    return out;
+}
+
+Json drive_status_json(const shm::DriveSnapshot& s, const Profile* profile, std::int64_t now_ns) {
+    auto out = Json::object();
+    out.set("bus", shm::view(s.bus)).set("drive", shm::view(s.name)).set("address", s.address);
+    out.set("profile", shm::view(s.profile)).set("health", shm::to_string(s.health));
+    out.set("sequence", s.sequence).set("age_ms", (now_ns - s.published_ns) / 1'000'000);
+    out.set("counters", counters_json(drive_counters(s.counters)));
+    out.set("lease", lease_json(s.lease, now_ns));
+    out.set("state", has_state(profile) ? state_json(decode_state(*profile, s)) : Json());
+    auto registers = Json::array();
+    for (std::size_t i = 0; i < s.register_count && i < s.registers.size(); ++i) {
+        const auto& r = s.registers[i];
+        auto item = register_json(r.address, r.value, info_of(profile, r.address));
+        item.set("valid", r.valid != 0);
+        item.set("age_ms", r.time_ns > 0 ? Json((now_ns - r.time_ns) / 1'000'000) : Json());
+        registers.push(std::move(item));
+    }
+    out.set("registers", std::move(registers));
+    return out;
+}
+
+std::string bus_status_text(const shm::BusStatus& s, bool can_request, std::int64_t now_ns) {
+    const auto group = std::string(shm::view(s.control_group));
+    const std::string requests = group.empty() ? std::string(can_request ? "open to every client" : "not possible")
+                                 : can_request ? fmt::format("group {} (you are a member)", group)
+                                               : fmt::format("group {} (you are not a member: watching only)", group);
+    std::vector<std::pair<std::string, std::string>> fields = {
+        {"bus", std::string(shm::view(s.bus))},
+        {"device", line_text(s)},
+        {"state", s.up != 0 ? "up" : "down"},
+        {"drives", fmt::format("{} of {} online", s.drives_online, s.drive_count)},
+        {"daemon", fmt::format("pid {}, last status {} ago", s.daemon_pid, format_age(now_ns - s.published_ns))},
+        {"requests", requests},
+        {"reply latency", timing_text(s.reply_latency, "replies")},
+        {"extra gap", timing_text(s.extra_gap, "requests")},
+    };
+    std::string out = render_fields(fields);
+    out += "\ncounters\n";
+    std::vector<std::pair<std::string, std::string>> counters;
+    for (const auto& [name, value] : bus_counters(s.counters)) {
+        auto label = name;
+        std::ranges::replace(label, '_', ' ');
+        counters.emplace_back(label, std::to_string(value));
+    }
+    out += render_fields(counters, "  ");
+    out += "\n" + render_table(drive_rows(s));
+    return out;
+}
+
+Json bus_status_json(const shm::BusStatus& s, bool can_request, std::int64_t now_ns) {
+    auto out = Json::object();
+    out.set("bus", shm::view(s.bus)).set("device", shm::view(s.device)).set("baud", s.baud);
+    out.set("format", shm::view(s.format)).set("up", s.up != 0).set("daemon_pid", s.daemon_pid);
+    out.set("sequence", s.sequence).set("age_ms", (now_ns - s.published_ns) / 1'000'000);
+    out.set("drive_count", s.drive_count).set("drives_online", s.drives_online);
+    out.set("control_group", shm::view(s.control_group)).set("can_request", can_request);
+    out.set("counters", counters_json(bus_counters(s.counters)));
+    out.set("reply_latency", timing_json(s.reply_latency)).set("extra_gap", timing_json(s.extra_gap));
+    out.set("drives", drives_json(s));
+    return out;
+}
+
+std::vector<Row> drive_rows(const shm::BusStatus& s) {
+    std::vector<Row> rows = {{"NAME", "ADDRESS", "PROFILE", "HEALTH"}};
+    for (std::size_t i = 0; i < s.drive_count && i < s.drives.size(); ++i) {
+        const auto& d = s.drives[i];
+        rows.push_back({std::string(shm::view(d.name)), std::to_string(d.address), std::string(shm::view(d.profile)),
+                        std::string(shm::to_string(d.health))});
+    }
+    return rows;
+}
+
+Json drives_json(const shm::BusStatus& s) {
+    auto drives = Json::array();
+    for (std::size_t i = 0; i < s.drive_count && i < s.drives.size(); ++i) {
+        const auto& d = s.drives[i];
+        drives.push(Json::object()
+                        .set("name", shm::view(d.name))
+                        .set("address", d.address)
+                        .set("profile", shm::view(d.profile))
+                        .set("health", shm::to_string(d.health)));
+    }
+    return drives;
+}
+
+std::string key_values(const WatchDrive& d) {
+    if (!d.snapshot) {
+        return "no snapshot yet";
+    }
+    if (has_state(d.profile)) {
+        return state_text(decode_state(*d.profile, *d.snapshot), *d.profile);
+    }
+    std::vector<std::string> parts;
+    const auto& s = *d.snapshot;
+    for (std::size_t i = 0; i < s.register_count && i < s.registers.size() && parts.size() < 4; ++i) {
+        const auto& r = s.registers[i];
+        const auto* info = info_of(d.profile, r.address);
+        const auto name = info != nullptr ? info->name : hex(r.address);
+        if (r.valid == 0) {
+            parts.push_back(name + "=?");
+            continue;
+        }
+        const auto value = info != nullptr ? format_engineering(*info, r.value) : std::string();
+        parts.push_back(name + "=" + (value.empty() ? std::to_string(r.value) : value));
+    }
+    return parts.empty() ? std::string("no registers polled") : join(parts, " ");
+}
+
+std::vector<std::string> watch_lines(const shm::BusStatus& bus, const std::vector<WatchDrive>& drives,
+                                     std::chrono::milliseconds interval, std::int64_t now_ns) {
+    std::vector<std::string> lines;
+    lines.push_back(fmt::format("drivebusctl watch: bus {} ({}), every {} ms; q quits", shm::view(bus.bus),
+                                line_text(bus), interval.count()));
+    lines.emplace_back();
+    std::vector<Row> rows = {{"DRIVE", "ADDRESS", "PROFILE", "HEALTH", "AGE", "VALUES"}};
+    for (const auto& d : drives) {
+        rows.push_back({d.name, std::to_string(d.address), d.profile_type,
+                        std::string(shm::to_string(d.snapshot ? d.snapshot->health : d.health)),
+                        d.snapshot ? format_age(now_ns - d.snapshot->published_ns) : std::string("-"),
+                        key_values(d)});
+    }
+    const auto table = render_table(rows);
+    std::size_t start = 0;
+    for (auto end = table.find('\n'); end != std::string::npos; end = table.find('\n', start)) {
+        lines.push_back(table.substr(start, end - start));
+        start = end + 1;
+    }
+    lines.emplace_back();
+    lines.push_back(fmt::format("bus {}: {}, {} of {} drives online, {} replies, {} timeouts, reply latency {}",
+                                shm::view(bus.bus), bus.up != 0 ? "up" : "down", bus.drives_online, bus.drive_count,
+                                bus.counters.replies, bus.counters.timeouts,
+                                bus.reply_latency.count > 0 ? "mean " + ms_text(bus.reply_latency.mean_ns)
+                                                            : std::string("-")));
+    return lines;
+}
+
+Json watch_json(const shm::BusStatus& bus, const std::vector<WatchDrive>& drives, std::int64_t now_ns) {
+    auto out = Json::object();
+    out.set("bus", Json::object()
+                       .set("name", shm::view(bus.bus))
+                       .set("up", bus.up != 0)
+                       .set("drives_online", bus.drives_online)
+                       .set("replies", bus.counters.replies)
+                       .set("timeouts", bus.counters.timeouts)
+                       .set("reply_latency_mean_ms", ms_value(bus.reply_latency.mean_ns)));
+    auto list = Json::array();
+    for (const auto& d : drives) {
+        auto item = Json::object();
+        item.set("name", d.name).set("address", d.address).set("profile", d.profile_type);
+        item.set("health", shm::to_string(d.snapshot ? d.snapshot->health : d.health));
+        item.set("age_ms", d.snapshot ? Json((now_ns - d.snapshot->published_ns) / 1'000'000) : Json());
+        if (d.snapshot && has_state(d.profile)) {
+            item.set("state", state_json(decode_state(*d.profile, *d.snapshot)));
+        }
+        auto values = Json::object();
+        if (d.snapshot) {
+            for (std::size_t i = 0; i < d.snapshot->register_count && i < d.snapshot->registers.size(); ++i) {
+                const auto& r = d.snapshot->registers[i];
+                const auto* info = info_of(d.profile, r.address);
+                const auto name = info != nullptr ? info->name : hex(r.address);
+                values.set(name, r.valid == 0 ? Json()
+                                 : info != nullptr && has_engineering(*info) ? Json(engineering(*info, r.value))
+                                                                             : Json(r.value));
+            }
+        }
+        item.set("values", std::move(values));
+        list.push(std::move(item));
+    }
+    out.set("drives", std::move(list));
+    return out;
+}
+
+}  // namespace drivebus::ctl
