@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 #include <random>
 
@@ -24,17 +25,18 @@ iox::capro::IdString_t id(std::string_view text) {
     return {iox::cxx::TruncateToCapacity, std::string(text).c_str()};
 }
 
-bool roudi_answers() {
+// 0 when RouDi answers on its socket, else the errno of the attempt.
+int roudi_answers() {
     const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
     if (fd < 0) {
-        return false;
+        return errno;
     }
     sockaddr_un addr{};
     addr.sun_family = AF_UNIX;
     std::strncpy(addr.sun_path, kRouDiSocket, sizeof(addr.sun_path) - 1);
-    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+    const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 ? 0 : errno;
     ::close(fd);
-    return ok;
+    return rc;
 }
 
 std::string group_of(const char* path) {
@@ -154,10 +156,16 @@ std::string_view to_string(ErrorKind kind) noexcept {
 std::expected<void, Error> ensure_runtime(const std::string& application) {
     static std::once_flag once;
     static bool started = false;
-    if (!roudi_answers()) {
-        return std::unexpected(make_error(ErrorKind::NotRunning,
-                                          "drivebusd is not running (nothing answers on /tmp/roudi); start it: "
-                                          "systemctl start drivebusd"));
+    if (const int error = roudi_answers(); error != 0) {
+        if (error == EACCES) {
+            const auto group = group_of(kRouDiSocket);
+            return std::unexpected(make_error(ErrorKind::NotPermitted, "this user may not reach drivebusd's RouDi "
+                                                                       "(/tmp/roudi): join group " +
+                                                                           group + " and log in again"));
+        }
+        return std::unexpected(make_error(ErrorKind::NotRunning, std::string("drivebusd is not running (/tmp/roudi: ") +
+                                                                     std::strerror(error) +
+                                                                     "); start it: systemctl start drivebusd"));
     }
     if (::access(kManagementShm, R_OK | W_OK) != 0) {
         const auto group = group_of(kManagementShm);
