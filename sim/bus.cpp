@@ -188,6 +188,9 @@ TxPlan Bus::plan_reply(const rtu::Adu& reply, const DriveFaults& faults, rtu::In
         t += c;
         plan.push_back({t, bytes[i]});
     }
+    plan.back().reply_end = true;
+    plan.back().address = bytes[0];
+    plan.back().function = bytes[1];
     ++counters_.replies;
     return plan;
 }

@@ -21,6 +21,10 @@ namespace drivebus::sim {
 struct TxByte {
     rtu::Instant at{};
     std::uint8_t value = 0;
+    // The last byte of a reply carries the reply's address and function (for --tx-log).
+    bool reply_end = false;
+    std::uint8_t address = 0;
+    std::uint8_t function = 0;
 };
 using TxPlan = std::vector<TxByte>;
 

@@ -23,6 +23,7 @@
 #include "bus.hpp"
 #include "commands.hpp"
 #include "control.hpp"
+#include "event_log.hpp"
 #include "drivebus/profile.hpp"
 #include "rtu/framer.hpp"
 #include "serial/pty.hpp"
@@ -54,6 +55,8 @@ struct Options {
     std::uint32_t seed = 1;
     std::string profile_dir;
     int realtime = 0;
+    std::string tx_log;
+    std::string rx_log;
 };
 
 struct Line {
@@ -239,9 +242,30 @@ int run(const Options& o) {
     sys::Timer frame_timer;
     int status = 0;
 
+    std::optional<sim::EventLog> tx_log;
+    std::optional<sim::EventLog> rx_log;
+    try {
+        tx_log.emplace(o.tx_log);
+        rx_log.emplace(o.rx_log);
+    } catch (const std::exception& e) {
+        remove_link(line);
+        fail(kExitRuntime, std::string("--tx-log/--rx-log: ") + e.what());
+    }
+    if (tx_log->enabled()) {
+        writer.on_reply_end([&](rtu::Instant at, std::uint8_t address, std::uint8_t function) {
+            tx_log->record(at, address, function);
+        });
+    }
+    // When the first read of the frame being received returned.
+    std::optional<rtu::Instant> frame_first_read;
+
     auto take_events = [&] {
         while (auto event = framer.next_event()) {
             if (const auto* frame = std::get_if<rtu::Frame>(&*event)) {
+                if (frame_first_read) {
+                    const auto bytes = frame->adu.bytes();
+                    rx_log->record(*frame_first_read, bytes[0], bytes[1]);
+                }
                 writer.enqueue(bus.on_frame(*frame));
             } else {
                 bus.on_discarded(std::get<rtu::DiscardedFrame>(*event));
@@ -275,6 +299,9 @@ int run(const Options& o) {
             // A new frame begins: how long after our last character did the master start it?
             // (Not after a reply the simulator itself sent late: the master rightly took the
             // hole in it for the end of the line's activity.)
+            if (!framer.frame_open()) {
+                frame_first_read = read_time;
+            }
             if (!framer.frame_open() && writer.last_write()) {
                 if (writer.slipped() || writer.stalled(read_time)) {
                     bus.record_slip();
@@ -358,6 +385,8 @@ int run_main(int argc, char** argv) {
     app.add_option("--control", o.control, "control socket PATH for commands while running");
     app.add_option("--seed", o.seed, "seed for the shares of faulty replies")->capture_default_str();
     app.add_option("--profile-dir", o.profile_dir, "directory with the drive profiles (TYPE.toml)");
+    app.add_option("--tx-log", o.tx_log, "write 'NS ADDRESS FUNCTION' to PATH after each reply's last byte");
+    app.add_option("--rx-log", o.rx_log, "write 'NS ADDRESS FUNCTION' to PATH for each request: when its first byte was read");
     app.add_option("--realtime", o.realtime, "run at this SCHED_FIFO priority (1-99) for tighter pacing")
         ->check(CLI::Range(1, 99));
     try {

@@ -36,8 +36,12 @@ void PacedWriter::service() {
         }
         std::array<std::uint8_t, 256> burst{};
         std::size_t n = 0;
+        std::optional<TxByte> reply_end;
         while (!queue_.empty() && queue_.front().at <= now && n < burst.size()) {
             burst[n++] = queue_.front().value;
+            if (queue_.front().reply_end) {
+                reply_end = queue_.front();
+            }
             queue_.pop_front();
         }
         const rtu::Instant before = sys::now();
@@ -47,6 +51,9 @@ void PacedWriter::service() {
         lost_ += n - sent;
         // The bytes left somewhere between the two readings of the clock.
         last_write_ = {before, sys::now()};
+        if (reply_end && on_reply_end_) {
+            on_reply_end_(last_write_->second, reply_end->address, reply_end->function);
+        }
     }
     timer_.disarm();
 }

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <optional>
 
 #include "bus.hpp"
@@ -20,6 +21,10 @@ public:
 
     [[nodiscard]] int timer_fd() const noexcept { return timer_.fd(); }
     void enqueue(const TxPlan& plan);
+    // Called after the write() that sent the last byte of a reply, with the clock read then.
+    void on_reply_end(std::function<void(rtu::Instant, std::uint8_t address, std::uint8_t function)> callback) {
+        on_reply_end_ = std::move(callback);
+    }
     // Writes what is due (busy-waiting for bytes due within the spin window) and re-arms.
     void service();
 
@@ -52,6 +57,7 @@ private:
     std::uint64_t written_ = 0;
     std::uint64_t lost_ = 0;  // bytes the other end did not take (its buffer was full)
     std::optional<std::pair<rtu::Instant, rtu::Instant>> last_write_;
+    std::function<void(rtu::Instant, std::uint8_t, std::uint8_t)> on_reply_end_;
 };
 
 }  // namespace drivebus::sim
