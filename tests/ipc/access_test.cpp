@@ -56,9 +56,9 @@ void ensure_user(const char* name, const std::string& extra_groups) {
     }
 }
 
-std::vector<std::string> as(const char* user, std::vector<std::string> argv, const char* group = kWatch) {
+std::vector<std::string> as(const char* user, std::vector<std::string> argv) {
     std::vector<std::string> out = {"/usr/bin/setpriv", std::string("--reuid=") + user,
-                                    std::string("--regid=") + group, "--init-groups", "--"};
+                                    std::string("--regid=") + kWatch, "--init-groups", "--"};
     out.insert(out.end(), argv.begin(), argv.end());
     return out;
 }
@@ -153,9 +153,21 @@ TEST_F(Access, TheSharedMemoryRefusesAViewerThatAsksIcoryxDirectly) {
 
 TEST_F(Access, AnotherEffectiveGroupIsToldWhichOneToUse) {
     // RouDi could not answer this process at all; the library says so at once.
-    const auto [status, out] = run_program(as(kOperator, {TEST_CLIENT_PATH, bus_, "snapshots", "1"}, kControl));
+    // In the watch group, but as a supplementary group only.
+    const auto [status, out] = run_program({"/usr/bin/setpriv", std::string("--reuid=") + kOperator,
+                                            std::string("--regid=") + kControl,
+                                            std::string("--groups=") + kWatch + "," + kControl, "--", TEST_CLIENT_PATH,
+                                            bus_, "snapshots", "1"});
     EXPECT_EQ(status, 1) << out;
     EXPECT_NE(out.find("effective group must be dbt-watch"), std::string::npos) << out;
+}
+
+TEST_F(Access, OutsideTheWatchGroupIsToldToJoinIt) {
+    const auto [status, out] = run_program({"/usr/bin/setpriv", std::string("--reuid=") + kOperator,
+                                            std::string("--regid=") + kControl, "--clear-groups", "--",
+                                            TEST_CLIENT_PATH, bus_, "snapshots", "1"});
+    EXPECT_EQ(status, 1) << out;
+    EXPECT_NE(out.find("join group dbt-watch"), std::string::npos) << out;
 }
 
 TEST_F(Access, AnOperatorWatchesAndCommands) {
