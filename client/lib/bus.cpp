@@ -159,8 +159,13 @@ std::expected<void, Error> ensure_runtime(const std::string& application) {
     if (const int error = roudi_answers(); error != 0) {
         if (error == EACCES) {
             const auto group = group_of(kRouDiSocket);
+            struct stat st {};
+            ::stat(kRouDiSocket, &st);
+            char mode[8];
+            std::snprintf(mode, sizeof mode, "%04o", st.st_mode & 07777U);
             return std::unexpected(make_error(ErrorKind::NotPermitted, "this user may not reach drivebusd's RouDi "
-                                                                       "(/tmp/roudi): join group " +
+                                                                       "(/tmp/roudi, group " +
+                                                                           group + ", mode " + mode + "): join group " +
                                                                            group + " and log in again"));
         }
         return std::unexpected(make_error(ErrorKind::NotRunning, std::string("drivebusd is not running (/tmp/roudi: ") +

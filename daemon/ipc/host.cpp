@@ -3,12 +3,15 @@
 #include <grp.h>
 #include <pwd.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 #include <fmt/format.h>
 
 #include "drivebus/shm.hpp"
@@ -221,6 +224,18 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
         }
         roudi_config.iox::config::RouDiConfig::setDefaults();
         host->roudi_ = std::make_unique<Embedded>(roudi_config);
+        // RouDi's thread makes its socket under a temporary process-wide umask; a runtime
+        // started meanwhile in this process does the same, and the two can leave the socket
+        // without group write (clients then get EACCES). Wait for it, then set its mode.
+        const auto deadline = sys::now() + std::chrono::seconds(5);
+        while (!roudi_running() && sys::now() < deadline) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        const std::string socket = std::string(iox::platform::IOX_UDS_SOCKET_PATH_PREFIX) +
+                                   iox::roudi::IPC_CHANNEL_ROUDI_NAME;
+        if (::chmod(socket.c_str(), 0660) != 0) {
+            return std::unexpected("the embedded RouDi's socket " + socket + " did not appear");
+        }
     }
     iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
     return host;
