@@ -32,6 +32,7 @@ public:
         loop_.add(wake_.get(), [this] { on_wake(); });
         loop_.add(timer_.fd(), [this] {
             timer_.acknowledge();
+            armed_.reset();
             drive();
         });
     }
@@ -273,16 +274,38 @@ private:
         }
         // The loop goes round at least this often, so that its heartbeat shows it is alive
         // even on a quiet bus (the service watchdog watches it).
-        consider(sys::now() + kLivenessTick);
+        const rtu::Instant now = sys::now();
+        consider(now + kLivenessTick);
+        // While a reply comes in, each character moves the frame's deadline later. A timer
+        // already armed for an earlier, future instant stays: when it fires, drive() runs and
+        // arms the later one. That saves a timerfd_settime per character.
+        if (armed_ && *armed_ > now && *armed_ <= *wake) {
+            return;
+        }
         timer_.arm(*wake);
+        armed_ = wake;
     }
 
     static constexpr rtu::Duration kLivenessTick = std::chrono::milliseconds(500);
 
+    // Other threads read the status a few times a second; copying it on every wake-up (once
+    // per received character) would cost more than all the rest of the wake-up.
     void publish_status() {
+        const rtu::Instant now = sys::now();
+        const auto& status = engine_.status();
+        if (now < next_status_copy_ && status.up == status_copy_up_) {
+            return;
+        }
+        next_status_copy_ = now + kStatusCopyInterval;
+        status_copy_up_ = status.up;
         const std::lock_guard lock(mutex_);
-        status_copy_ = engine_.status();
+        status_copy_ = status;
     }
+
+    static constexpr rtu::Duration kStatusCopyInterval = std::chrono::milliseconds(5);
+    rtu::Instant next_status_copy_{};
+    bool status_copy_up_ = false;
+    std::optional<rtu::Instant> armed_;
 
     const config::BusConfig& bus_;
     rtu::CharacterTiming timing_;
