@@ -395,7 +395,11 @@ struct Options {
 void latency(const Options& o, std::vector<Row>& rows) {
     const Line line{19200, rtu::Parity::None};  // what the Altivar 58 speaks
     const std::size_t n = o.smoke ? 300 : 10000;
-    constexpr auto kPause = "3000";  // µs after each request: the bus is idle (t3.5 = 1823 µs) for the next
+    constexpr auto kPause = "3000";  // µs after each read (item 3): both masters start from a quiet line
+    // Item 1's bus must be idle by the wire's clock, not only by the unpaced simulator's: the
+    // reply comes back long before the request could have left a real wire (8 characters,
+    // 4.2 ms at 19200), and drivebusd keeps the line busy until then plus t3.5.
+    constexpr auto kIdlePause = "8000";
     const fs::path dir = fresh_dir("latency");
 
     if (o.runs(2)) {
@@ -463,7 +467,7 @@ void latency(const Options& o, std::vector<Row>& rows) {
                 Daemon daemon(dir, "bench13", sim.link(), line, drive_tables(1, "", ""));
                 if (o.runs(1)) {
                     for (const auto& row : numbers(run_client(
-                             {"bench13", "writes", "d1", "W401", std::to_string(per_block), kPause}, dir, 600s))) {
+                             {"bench13", "writes", "d1", "W401", std::to_string(per_block), kIdlePause}, dir, 600s))) {
                         writes.emplace_back(row.at(0), row.at(1));
                     }
                 }

@@ -22,8 +22,10 @@ using namespace std::chrono_literals;
 
 class BusLoop::Impl {
 public:
-    Impl(const config::BusConfig& bus, master::EngineCallbacks callbacks, std::atomic<std::uint64_t>& heartbeat)
+    Impl(const config::BusConfig& bus, master::EngineCallbacks callbacks, std::atomic<std::uint64_t>& heartbeat,
+         std::atomic<bool>& up)
         : bus_(bus),
+          up_(up),
           timing_(rtu::character_timing(bus.format).value()),
           engine_(bus, timing_, std::move(callbacks), sys::now()),
           uart_(serial::kernel_uart_control()),
@@ -293,6 +295,7 @@ private:
     void publish_status() {
         const rtu::Instant now = sys::now();
         const auto& status = engine_.status();
+        up_.store(status.up, std::memory_order_relaxed);
         if (now < next_status_copy_ && status.up == status_copy_up_) {
             return;
         }
@@ -308,6 +311,7 @@ private:
     std::optional<rtu::Instant> armed_;
 
     const config::BusConfig& bus_;
+    std::atomic<bool>& up_;
     rtu::CharacterTiming timing_;
     master::BusEngine engine_;
     std::unique_ptr<serial::UartControl> uart_;
@@ -337,7 +341,7 @@ BusLoop::~BusLoop() {
 }
 
 std::expected<void, std::string> BusLoop::start() {
-    impl_ = std::make_unique<Impl>(bus_, callbacks_, heartbeat_);
+    impl_ = std::make_unique<Impl>(bus_, callbacks_, heartbeat_, up_);
     std::promise<std::expected<void, std::string>> started;
     auto ready = started.get_future();
     thread_ = std::thread([this, &started] {

@@ -40,6 +40,8 @@ public:
     std::expected<void, master::SubmitError> submit(master::ClientRequest request);
     // Thread-safe copy of the bus status.
     [[nodiscard]] master::BusStatus status() const;
+    // Whether the line is open, without copying the status.
+    [[nodiscard]] bool up() const noexcept { return up_.load(std::memory_order_relaxed); }
     // How often the loop has gone round: at least twice a second while it is alive, so a
     // watchdog can check it moves.
     [[nodiscard]] std::uint64_t heartbeat() const noexcept { return heartbeat_.load(); }
@@ -53,6 +55,7 @@ private:
     std::unique_ptr<Impl> impl_;
     std::thread thread_;
     std::atomic<std::uint64_t> heartbeat_{0};
+    std::atomic<bool> up_{false};
 };
 
 }  // namespace drivebus::bus

@@ -238,7 +238,7 @@ struct BusService::Impl {
         if (admitted->touches_control && !check_lease(p, request)) {
             return;
         }
-        if (!loop->status().up) {
+        if (!loop->up()) {
             answer_status(p, shm::Status::BusDown);
             return;
         }
@@ -301,8 +301,10 @@ struct BusService::Impl {
             log::notice(fmt::format("bus {} drive {}: {} took the control lease over", bus.name, name, p.client_name));
         }
         p.lease_ms = d.lease_ms;
-        republish_lease(p.drive);
-        wake.trigger();  // the intake thread recomputes its next lease deadline
+        if (d.changed) {
+            // A renewal only moves the expiry: subscribers hear of new holders, not of each write.
+            republish_lease(p.drive);
+        }
         return true;
     }
 
@@ -381,7 +383,7 @@ struct BusService::Impl {
             take_requests();
             expire_leases();
             const auto now = sys::now();
-            const bool up = loop->status().up;
+            const bool up = loop->up();
             std::vector<shm::DriveHealth> h;
             {
                 std::lock_guard lock(health_mutex);

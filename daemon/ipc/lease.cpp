@@ -29,23 +29,24 @@ LeaseDecision LeaseTable::acquire(std::size_t drive, std::uint64_t client, std::
     auto& l = leases_.at(drive);
     const bool live = l.state == shm::LeaseState::Held && l.expires > now;
     if (live && l.holder != client && !take_over) {
-        return {false, false, l.holder, l.holder_name, 0};
+        return {false, false, false, l.holder, l.holder_name, 0};
     }
     const bool moved = live && l.holder != client;
+    const bool renewal = live && l.holder == client;
     l.holder = client;
     l.holder_name = std::string(name);
     l.state = shm::LeaseState::Held;
     l.expires = now + l.duration;
-    return {true, moved, client, l.holder_name, ms(l.duration)};
+    return {true, moved, !renewal, client, l.holder_name, ms(l.duration)};
 }
 
 LeaseDecision LeaseTable::renew(std::size_t drive, std::uint64_t client, rtu::Instant now) {
     auto& l = leases_.at(drive);
     if (l.state != shm::LeaseState::Held || l.holder != client || l.expires <= now) {
-        return {false, false, l.state == shm::LeaseState::Held ? l.holder : 0, l.holder_name, 0};
+        return {false, false, false, l.state == shm::LeaseState::Held ? l.holder : 0, l.holder_name, 0};
     }
     l.expires = now + l.duration;
-    return {true, false, client, l.holder_name, ms(l.duration)};
+    return {true, false, false, client, l.holder_name, ms(l.duration)};
 }
 
 bool LeaseTable::release(std::size_t drive, std::uint64_t client) {

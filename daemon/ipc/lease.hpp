@@ -18,6 +18,7 @@ namespace drivebus::ipc {
 struct LeaseDecision {
     bool allowed = false;
     bool taken_over = false;     // the lease moved from another client
+    bool changed = false;        // taken (not merely renewed): holder or state differ
     std::uint64_t holder = 0;    // the holder after the decision (the refuser's holder when denied)
     std::string holder_name;     // for messages
     std::uint32_t lease_ms = 0;  // granted length when allowed
