@@ -137,6 +137,17 @@ TEST_F(Access, AViewerWatchesButCannotSendRequests) {
     EXPECT_NE(read_out.find("dbt-control"), std::string::npos) << read_out;
 }
 
+TEST_F(Access, DrivebusctlReadsAViewersPolledRegisterFromTheSnapshot) {
+    const auto [status, out] = run_program(as(kViewer, {DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FD00"}));
+    EXPECT_EQ(status, 0) << out;
+    EXPECT_NE(out.find("from the snapshot"), std::string::npos) << out;
+    EXPECT_NE(out.find("dbt-control"), std::string::npos) << out;
+    EXPECT_NE(out.find("FD00"), std::string::npos) << out;
+    // A register nobody polls needs a request, which the viewer may not send.
+    const auto [refused, refused_out] = run_program(as(kViewer, {DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FE03"}));
+    EXPECT_EQ(refused, 4) << refused_out;
+}
+
 TEST_F(Access, TheSharedMemoryRefusesAViewerThatAsksIcoryxDirectly) {
     // raw_request skips libdrivebus's group check and asks iceoryx for a request chunk, to
     // write FA51 = 888: RouDi has no writable segment for the viewer.
