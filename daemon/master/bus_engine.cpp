@@ -249,6 +249,22 @@ void BusEngine::transmitted(rtu::Instant tx_end) {
     }
 }
 
+std::optional<rtu::Instant> BusEngine::next_send_at() const {
+    if (!up_ || transmitting_ || framer_.frame_open()) {
+        return std::nullopt;
+    }
+    if (transaction_) {
+        if (transaction_->state() == Transaction::State::ReadyToSend) {
+            return line_free_at();
+        }
+        return std::nullopt;
+    }
+    if (const auto due = scheduler_.next_due()) {
+        return std::max(*due, line_free_at());
+    }
+    return std::nullopt;
+}
+
 std::optional<rtu::Instant> BusEngine::next_wakeup() const {
     std::optional<rtu::Instant> wake;
     auto consider = [&](std::optional<rtu::Instant> t) {
@@ -256,18 +272,12 @@ std::optional<rtu::Instant> BusEngine::next_wakeup() const {
             wake = t;
         }
     };
-    consider(framer_.deadline());
     // While a frame is open, its end (the framer's deadline) comes first.
+    consider(framer_.deadline());
     if (transaction_) {
         consider(transaction_->deadline());
-        if (transaction_->state() == Transaction::State::ReadyToSend && !framer_.frame_open()) {
-            consider(line_free_at());
-        }
-    } else if (up_ && !transmitting_ && !framer_.frame_open()) {
-        if (const auto due = scheduler_.next_due()) {
-            consider(std::max(*due, line_free_at()));
-        }
     }
+    consider(next_send_at());
     return wake;
 }
 

@@ -47,6 +47,9 @@ public:
     void transmitted(rtu::Instant tx_end);
     // When the engine wants to be woken next.
     [[nodiscard]] std::optional<rtu::Instant> next_wakeup() const;
+    // When transmission() will next have a request for the line, where that is known now: the
+    // end of the t3.5 silence, or a poll group's due time if later.
+    [[nodiscard]] std::optional<rtu::Instant> next_send_at() const;
 
     // ---- clients ----
     std::expected<void, SubmitError> submit(ClientRequest request);

@@ -115,6 +115,35 @@ TEST_F(EngineTest, TheFirstRequestAfterLineUpAddsNoExtraGap) {
     EXPECT_LT(gap.count, engine->status().counters.transmissions);
 }
 
+// What the bus thread's send_spin relies on: next_send_at() is unknown while a frame is open,
+// and is the first instant at which transmission() gives a request: t3.5 after the last
+// character (the framer closes a frame by silence one character later, to be sure of it).
+TEST_F(EngineTest, NextSendAtIsTheFirstInstantTransmissionHasARequest) {
+    add_fan();
+    config.drives.back().polls.back().period = 1ms;  // always due
+    engine = std::make_unique<master::BusEngine>(config, timing, master::EngineCallbacks{}, kStart);
+    engine->line_up(kStart);
+    const rtu::Instant noise = kStart + 10ms;
+    const std::array<std::uint8_t, 1> byte{0x55};
+    engine->on_bytes(byte, noise);
+    EXPECT_FALSE(engine->next_send_at().has_value()) << "a frame is open";
+    EXPECT_FALSE(engine->transmission(noise + timing.t3_5).has_value()) << "a frame is open";
+    const auto closes = engine->framer().deadline();
+    ASSERT_TRUE(closes.has_value());
+    engine->on_time(*closes);
+    ASSERT_FALSE(engine->framer().frame_open());
+    const auto at = engine->next_send_at();
+    ASSERT_TRUE(at.has_value());
+    EXPECT_EQ(*at, noise + timing.t3_5);
+    EXPECT_EQ(*at, engine->line_free_at());
+    EXPECT_FALSE(engine->transmission(*at - 1ns).has_value());
+    const auto adu = engine->transmission(*at);
+    ASSERT_TRUE(adu.has_value());
+    EXPECT_EQ((*adu)[0], 2);
+    engine->written(*at);
+    EXPECT_FALSE(engine->next_send_at().has_value()) << "one request at a time";
+}
+
 TEST_F(EngineTest, KeepsTheSilenceAndNoMoreWhenTheLineIsBusy) {
     add_fan();
     config.drives.back().polls.back().period = 1ms;  // always due: the line is saturated
