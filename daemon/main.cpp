@@ -160,7 +160,10 @@ int run_main(int argc, char** argv) {
             }
             last = s.health;
         };
-        auto loop = std::make_unique<bus::BusLoop>(b, callbacks, bus::LoopOptions{rt});
+        bus::LoopOptions loop_options;
+        loop_options.realtime = rt;
+        loop_options.send_spin = rt.send_spin;
+        auto loop = std::make_unique<bus::BusLoop>(b, callbacks, std::move(loop_options));
         if (auto started = loop->start(); !started) {
             log::error(started.error() + "; [realtime] mode is required");
             return kExitStartup;

@@ -1,6 +1,7 @@
 #include "bus/bus_loop.hpp"
 
 #include <poll.h>
+#include <pthread.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
 
@@ -22,9 +23,10 @@ using namespace std::chrono_literals;
 
 class BusLoop::Impl {
 public:
-    Impl(const config::BusConfig& bus, master::EngineCallbacks callbacks, std::atomic<std::uint64_t>& heartbeat,
-         std::atomic<bool>& up)
+    Impl(const config::BusConfig& bus, master::EngineCallbacks callbacks, const LoopOptions& options,
+         std::atomic<std::uint64_t>& heartbeat, std::atomic<bool>& up)
         : bus_(bus),
+          options_(options),
           up_(up),
           timing_(rtu::character_timing(bus.format).value()),
           engine_(bus, timing_, std::move(callbacks), sys::now()),
@@ -181,6 +183,11 @@ private:
                 break;
             }
             engine_.on_bytes(std::span(buffer.data(), *n), t);
+            // A short read emptied the input; what comes later wakes the loop again. Reading
+            // on to EAGAIN would add a syscall to every character's wake-up.
+            if (*n < buffer.size()) {
+                break;
+            }
         }
         drive();
     }
@@ -230,6 +237,10 @@ private:
     }
 
     void transmit(rtu::Instant now) {
+        if (!spin_to_send(now)) {
+            return;
+        }
+        const rtu::Instant line_free = engine_.line_free_at();
         const auto adu = engine_.transmission(now);
         if (!adu) {
             return;
@@ -238,6 +249,7 @@ private:
             lost(enabled.error().message);
             return;
         }
+        const rtu::Instant writing = sys::now();
         std::size_t done = 0;
         for (int stalls = 0; done < adu->size();) {
             auto n = port_->write(adu->bytes().subspan(done));
@@ -259,6 +271,30 @@ private:
         written_at_ = written;
         engine_.written(written);
         tracker_->started(written, adu->size());
+        if (options_.on_written) {
+            options_.on_written(line_free, writing, written);
+        }
+    }
+
+    // With send_spin set, the timer wakes the thread that much before a request is due (see
+    // arm()), and the last stretch is spent on the clock: a timer's wake-up is late by tens of
+    // microseconds, the clock is not. A character arriving meanwhile ends the spin; it moves
+    // the silence, and the loop handles it first. `now` becomes the send time. False: not yet.
+    bool spin_to_send(rtu::Instant& now) {
+        if (options_.send_spin.count() <= 0) {
+            return true;
+        }
+        const auto send_at = engine_.next_send_at();
+        if (!send_at || *send_at <= now || *send_at - now > options_.send_spin) {
+            return true;
+        }
+        pollfd p{port_->fd(), POLLIN, 0};
+        while ((now = sys::now()) < *send_at) {
+            if (::poll(&p, 1, 0) > 0) {
+                return false;
+            }
+        }
+        return true;
     }
 
     void arm() {
@@ -278,6 +314,10 @@ private:
         // even on a quiet bus (the service watchdog watches it).
         const rtu::Instant now = sys::now();
         consider(now + kLivenessTick);
+        if (const auto send_at = engine_.next_send_at();
+            options_.send_spin.count() > 0 && send_at && *send_at == *wake && *wake - now > options_.send_spin) {
+            *wake -= options_.send_spin;
+        }
         // While a reply comes in, each character moves the frame's deadline later. A timer
         // already armed for an earlier, future instant stays: when it fires, drive() runs and
         // arms the later one. That saves a timerfd_settime per character.
@@ -311,6 +351,7 @@ private:
     std::optional<rtu::Instant> armed_;
 
     const config::BusConfig& bus_;
+    const LoopOptions& options_;
     std::atomic<bool>& up_;
     rtu::CharacterTiming timing_;
     master::BusEngine engine_;
@@ -341,10 +382,12 @@ BusLoop::~BusLoop() {
 }
 
 std::expected<void, std::string> BusLoop::start() {
-    impl_ = std::make_unique<Impl>(bus_, callbacks_, heartbeat_, up_);
+    impl_ = std::make_unique<Impl>(bus_, callbacks_, options_, heartbeat_, up_);
     std::promise<std::expected<void, std::string>> started;
     auto ready = started.get_future();
     thread_ = std::thread([this, &started] {
+        // Named so that top -H and /proc/PID/task/*/comm tell the bus threads apart.
+        (void)::pthread_setname_np(::pthread_self(), ("bus " + bus_.name).substr(0, 15).c_str());
         if (options_.realtime && options_.realtime->mode != config::RealtimeMode::Off) {
             auto rt = rt::make_realtime(options_.realtime->priority, options_.realtime->cpus);
             if (!rt) {

@@ -21,6 +21,12 @@ namespace drivebus::bus {
 struct LoopOptions {
     // Real time for the bus thread; nullopt: normal scheduling.
     std::optional<config::RealtimeConfig> realtime;
+    // How long before a request's send time the timer wakes the thread, which then spins on
+    // the clock to the exact instant (0: the timer's own wake-up sends it).
+    rtu::Duration send_spin{};
+    // Called on the bus thread after each request's write(): when the line became free (t3.5
+    // after its last activity), when write() was called and when it returned. For benchmarks.
+    std::function<void(rtu::Instant line_free, rtu::Instant writing, rtu::Instant written)> on_written;
 };
 
 class BusLoop {

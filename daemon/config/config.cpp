@@ -65,7 +65,7 @@ namespace detail {
 
 RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
     Section s(table, "realtime", errors);
-    s.allow_only({"mode", "priority", "cpus", "lock_memory"});
+    s.allow_only({"mode", "priority", "cpus", "lock_memory", "send_spin"});
     RealtimeConfig realtime;
     if (const auto mode = choice(s, "mode", kRealtimeModes)) {
         static constexpr std::array<RealtimeMode, 3> kValues = {RealtimeMode::Off, RealtimeMode::BestEffort,
@@ -83,6 +83,8 @@ RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
         realtime.cpus.push_back(cpu);
     }
     realtime.lock_memory = s.boolean("lock_memory").value_or(realtime.lock_memory);
+    realtime.send_spin = duration(s, table, "send_spin", Duration{}, std::chrono::milliseconds(1))
+                             .value_or(realtime.send_spin);
     return realtime;
 }
 

@@ -80,6 +80,9 @@ struct RealtimeConfig {
     int priority = 50;            // SCHED_FIFO priority of the bus threads, 1-99
     std::vector<int> cpus;        // CPU affinity of the bus threads; empty: any
     bool lock_memory = true;      // mlockall(MCL_CURRENT | MCL_FUTURE)
+    // The bus thread's timer wakes it this long before each request is due and it spins on
+    // the clock for the rest: a timer's wake-up is late by tens of microseconds. 0: off.
+    Duration send_spin{};
 };
 
 enum class RouDiMode : std::uint8_t { Auto, Embedded, External };

@@ -237,6 +237,7 @@ TEST(Defaults, AppliedWhenKeysAreAbsent) {
     EXPECT_EQ(config.realtime.priority, 50);
     EXPECT_TRUE(config.realtime.cpus.empty());
     EXPECT_TRUE(config.realtime.lock_memory);
+    EXPECT_EQ(config.realtime.send_spin.count(), 0);
     ASSERT_EQ(config.buses.size(), 1U);
     const auto& bus = config.buses[0];
     EXPECT_EQ(bus.name, "line1");
@@ -461,6 +462,17 @@ TEST(Reject, RealtimeMode) {
 TEST(Reject, RealtimePriorityOutside1To99) {
     EXPECT_TRUE(rejected("[realtime]\npriority = 0\n" + std::string(kValid), {"realtime: priority 0 is below 1"}));
     EXPECT_TRUE(rejected("[realtime]\npriority = 100\n" + std::string(kValid), {"realtime: priority 100 is above 99"}));
+}
+
+TEST(Reject, RealtimeSendSpinOutside0To1ms) {
+    EXPECT_TRUE(
+        rejected("[realtime]\nsend_spin = \"2ms\"\n" + std::string(kValid), {"realtime: send_spin 2ms is above 1ms"}));
+    EXPECT_TRUE(rejected("[realtime]\nsend_spin = 100\n" + std::string(kValid), {"realtime: send_spin", "unit"}));
+}
+
+TEST(Config, RealtimeSendSpin) {
+    const auto config = parsed("[realtime]\nsend_spin = \"150us\"\n" + std::string(kValid));
+    EXPECT_EQ(config.realtime.send_spin, std::chrono::microseconds(150));
 }
 
 TEST(Reject, RealtimeCpusNegative) {

@@ -141,6 +141,32 @@ TEST_F(BusLoopTest, PollsBothDrivesWithTheSimulatorsValues) {
     expect_no_short_silence();
 }
 
+// With send_spin the timer wakes the thread early and it spins to the send time: no request
+// may start before the line is free, and the values still come through.
+TEST_F(BusLoopTest, SpinningToTheSendTimeKeepsEverySilence) {
+    std::mutex mutex;
+    std::vector<std::pair<rtu::Instant, rtu::Instant>> writes;  // line free, write() called
+    bus::LoopOptions options;
+    options.send_spin = 300us;
+    options.on_written = [&](rtu::Instant line_free, rtu::Instant writing, rtu::Instant written) {
+        const std::lock_guard lock(mutex);
+        writes.emplace_back(line_free, writing);
+        EXPECT_LE(writing, written);
+    };
+    loop = std::make_unique<bus::BusLoop>(config, recorder.callbacks(), options);
+    ASSERT_TRUE(loop->start().has_value());
+    ASSERT_TRUE(more_snapshots("fan", 5));
+    ASSERT_TRUE(more_snapshots("pump", 5));
+    loop->stop();
+    const std::lock_guard lock(mutex);
+    ASSERT_GE(writes.size(), 10U);
+    for (const auto& [line_free, writing] : writes) {
+        EXPECT_GE(writing, line_free) << "a request started before the t3.5 silence was over";
+    }
+    EXPECT_EQ(recorder.wrong_values(), 0U);
+    expect_no_short_silence();
+}
+
 TEST_F(BusLoopTest, EveryFaultIsSurvivedAndCounted) {
     start();
     ASSERT_TRUE(more_snapshots("fan", 2));
