@@ -1,5 +1,7 @@
 #include "ipc/bus_service.hpp"
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -490,7 +492,10 @@ std::optional<int> bus_served_elsewhere(const std::string& bus) {
 void BusService::start(bus::BusLoop& loop) {
     impl_->loop = &loop;
     impl_->running = true;
-    impl_->intake = std::thread([this] { impl_->run(); });
+    impl_->intake = std::thread([this] {
+        (void)::pthread_setname_np(::pthread_self(), ("ipc " + impl_->bus.name).substr(0, 15).c_str());
+        impl_->run();
+    });
 }
 
 void BusService::stop() {
