@@ -50,6 +50,12 @@ public:
     // When transmission() will next have a request for the line, where that is known now: the
     // end of the t3.5 silence, or a poll group's due time if later.
     [[nodiscard]] std::optional<rtu::Instant> next_send_at() const;
+    // How many times the request on the line has been written: 1, or more for a retry.
+    [[nodiscard]] unsigned attempts() const noexcept { return transaction_ ? transaction_->attempts() : 0; }
+    // For a poll cycle's first request: when its period made it due.
+    [[nodiscard]] std::optional<rtu::Instant> scheduled() const noexcept {
+        return job_ ? job_->scheduled : std::nullopt;
+    }
 
     // ---- clients ----
     std::expected<void, SubmitError> submit(ClientRequest request);

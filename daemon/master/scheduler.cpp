@@ -270,13 +270,15 @@ std::optional<Job> Scheduler::next_poll(rtu::Instant now) {
     }
     Group& group = drives_[pick->first].groups[pick->second];
     group.cursor = 0;
+    Job job = read_job(JobKind::Poll, pick->first, pick->second, 0);
+    job.scheduled = group.next_due;
     // Next cycle one period on; after a late cycle, one period from now: missed cycles are not
     // caught up in a burst.
     group.next_due += group.config->period;
     if (group.next_due <= now) {
         group.next_due = now + group.config->period;
     }
-    return read_job(JobKind::Poll, pick->first, pick->second, 0);
+    return job;
 }
 
 std::optional<Job> Scheduler::next_keep_alive(rtu::Instant now) {

@@ -91,6 +91,30 @@ TEST_F(SchedulerTest, PollsAtTheirPeriodsWithoutCatchUpBursts) {
     EXPECT_EQ(polls, 2);
 }
 
+// A cycle's first read carries the time its period made it due, so that lateness can be
+// measured against the schedule rather than against the previous cycle.
+TEST_F(SchedulerTest, ACyclesFirstReadCarriesItsScheduledTime) {
+    master::Scheduler s(config, t0);
+    auto j1 = s.next(t0 + 3ms);
+    ASSERT_TRUE(j1);
+    ASSERT_TRUE(j1->scheduled.has_value());
+    (void)s.complete(*j1, answered(), t0 + 4ms);
+    auto j2 = s.next(t0 + 4ms);
+    ASSERT_TRUE(j2);
+    (void)s.complete(*j2, answered(), t0 + 5ms);
+    // The next cycle of the first drive, taken 7 ms late, was due one period after the first.
+    std::optional<master::Job> next;
+    for (auto j = s.next(t0 + 107ms); j; j = s.next(t0 + 107ms)) {
+        if (j->drive == j1->drive) {
+            next = j;
+        }
+        (void)s.complete(*j, answered(), t0 + 107ms);
+    }
+    ASSERT_TRUE(next.has_value());
+    ASSERT_TRUE(next->scheduled.has_value());
+    EXPECT_EQ(*next->scheduled - *j1->scheduled, 100ms);
+}
+
 TEST_F(SchedulerTest, ClientWritesFirstAndFairBetweenClients) {
     master::Scheduler s(config, t0);
     ASSERT_TRUE(s.submit({10, 1, {1, rtu::ReadHoldingRegisters{450, 1}}}).has_value());
