@@ -240,7 +240,7 @@ private:
         if (!spin_to_send(now)) {
             return;
         }
-        const rtu::Instant line_free = engine_.line_free_at();
+        const rtu::Instant due = engine_.next_send_at().value_or(engine_.line_free_at());
         const auto adu = engine_.transmission(now);
         if (!adu) {
             return;
@@ -272,7 +272,7 @@ private:
         engine_.written(written);
         tracker_->started(written, adu->size());
         if (options_.on_written) {
-            options_.on_written(line_free, writing, written);
+            options_.on_written(WriteTrace{due, writing, written, engine_.attempts(), engine_.scheduled()});
         }
     }
 

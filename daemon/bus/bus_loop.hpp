@@ -18,15 +18,23 @@
 
 namespace drivebus::bus {
 
+// One request's write, as the bus thread saw it.
+struct WriteTrace {
+    rtu::Instant due;      // its poll's due time or the end of the t3.5 silence, whichever is later
+    rtu::Instant writing;  // write() called
+    rtu::Instant written;  // write() returned
+    unsigned attempt = 1;  // 2 and more: a retry
+    std::optional<rtu::Instant> scheduled;  // a poll cycle's first request: when its period made it due
+};
+
 struct LoopOptions {
     // Real time for the bus thread; nullopt: normal scheduling.
     std::optional<config::RealtimeConfig> realtime;
     // How long before a request's send time the timer wakes the thread, which then spins on
     // the clock to the exact instant (0: the timer's own wake-up sends it).
     rtu::Duration send_spin{};
-    // Called on the bus thread after each request's write(): when the line became free (t3.5
-    // after its last activity), when write() was called and when it returned. For benchmarks.
-    std::function<void(rtu::Instant line_free, rtu::Instant writing, rtu::Instant written)> on_written;
+    // Called on the bus thread after each request's write(). For benchmarks.
+    std::function<void(const WriteTrace&)> on_written;
 };
 
 class BusLoop {

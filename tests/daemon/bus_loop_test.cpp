@@ -145,13 +145,14 @@ TEST_F(BusLoopTest, PollsBothDrivesWithTheSimulatorsValues) {
 // may start before the line is free, and the values still come through.
 TEST_F(BusLoopTest, SpinningToTheSendTimeKeepsEverySilence) {
     std::mutex mutex;
-    std::vector<std::pair<rtu::Instant, rtu::Instant>> writes;  // line free, write() called
+    std::vector<std::pair<rtu::Instant, rtu::Instant>> writes;  // due, write() called
     bus::LoopOptions options;
     options.send_spin = 300us;
-    options.on_written = [&](rtu::Instant line_free, rtu::Instant writing, rtu::Instant written) {
+    options.on_written = [&](const bus::WriteTrace& w) {
         const std::lock_guard lock(mutex);
-        writes.emplace_back(line_free, writing);
-        EXPECT_LE(writing, written);
+        writes.emplace_back(w.due, w.writing);
+        EXPECT_LE(w.writing, w.written);
+        EXPECT_GE(w.attempt, 1U);
     };
     loop = std::make_unique<bus::BusLoop>(config, recorder.callbacks(), options);
     ASSERT_TRUE(loop->start().has_value());
@@ -160,8 +161,8 @@ TEST_F(BusLoopTest, SpinningToTheSendTimeKeepsEverySilence) {
     loop->stop();
     const std::lock_guard lock(mutex);
     ASSERT_GE(writes.size(), 10U);
-    for (const auto& [line_free, writing] : writes) {
-        EXPECT_GE(writing, line_free) << "a request started before the t3.5 silence was over";
+    for (const auto& [due, writing] : writes) {
+        EXPECT_GE(writing, due) << "a request started before it was due or the t3.5 silence was over";
     }
     EXPECT_EQ(recorder.wrong_values(), 0U);
     expect_no_short_silence();
