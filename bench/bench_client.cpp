@@ -2,10 +2,10 @@
 // on libdrivebus, as an application would be. Times are CLOCK_MONOTONIC nanoseconds, written
 // to stdout when the run is over (nothing is printed while measuring).
 //
-//   bench_client BUS snapshots DRIVE N       for N new snapshots of DRIVE: "RECV_NS REPLY_NS SEQ",
+//   bench_client BUS snapshots DRIVE N       for N new snapshots of DRIVE: "RECV_NS REPLY_NS SEQ PUB_NS",
 //                                            RECV_NS read in the on_snapshot callback (right after
 //                                            the library took the sample), REPLY_NS the time_ns
-//                                            of its newest register (the end of the reply)
+//                                            of its newest register (the end of the reply), PUB_NS its published_ns
 //   bench_client BUS writes DRIVE REG N PAUSE_US
 //                                            N writes of REG (values 1..N): "SENT_NS DONE_NS",
 //                                            SENT_NS just before write(); a pause after each
@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
         struct Sample {
             std::int64_t recv = 0, reply = 0;
             std::uint64_t sequence = 0;
+            std::int64_t published = 0;
         };
         std::vector<Sample> samples;
         samples.reserve(wanted + 16);
@@ -95,7 +96,7 @@ int main(int argc, char** argv) {
             }
             const std::lock_guard lock(mutex);
             if (samples.size() < wanted) {
-                samples.push_back({recv, reply, s.sequence});
+                samples.push_back({recv, reply, s.sequence, s.published_ns});
             } else {
                 done = true;
             }
@@ -107,8 +108,8 @@ int main(int argc, char** argv) {
         subscription.reset();
         const std::lock_guard lock(mutex);
         for (const auto& s : samples) {
-            std::printf("%lld %lld %llu\n", static_cast<long long>(s.recv), static_cast<long long>(s.reply),
-                        static_cast<unsigned long long>(s.sequence));
+            std::printf("%lld %lld %llu %lld\n", static_cast<long long>(s.recv), static_cast<long long>(s.reply),
+                        static_cast<unsigned long long>(s.sequence), static_cast<long long>(s.published));
         }
         return samples.size() >= wanted ? 0 : 1;
     }

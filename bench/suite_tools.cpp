@@ -1,0 +1,150 @@
+#include "suite_tools.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fmt/format.h>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+namespace drivebus::bench {
+
+using namespace std::chrono_literals;
+
+std::int64_t now_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+void note(const std::string& text) {
+    std::fprintf(stderr, "bench: %s\n", text.c_str());
+}
+
+bool roudi_answers() {
+    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/roudi");
+    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(fd);
+    return ok;
+}
+
+// Another RouDi (another drivebusd, a test run) must be gone before ours starts.
+void wait_for_no_roudi() {
+    bool told = false;
+    const auto give_up = std::chrono::steady_clock::now() + 30min;
+    while (roudi_answers()) {
+        if (!told) {
+            note("a RouDi answers on /tmp/roudi: waiting until it stops");
+            told = true;
+        }
+        if (std::chrono::steady_clock::now() > give_up) {
+            throw Failure("a RouDi kept answering on /tmp/roudi for 30 minutes");
+        }
+        std::this_thread::sleep_for(1s);
+    }
+}
+
+std::string slurp(const fs::path& path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+fs::path fresh_dir(const std::string& what) {
+    static int counter = 0;
+    const fs::path dir = fs::temp_directory_path() /
+                         fmt::format("drivebus-bench-{}-{}-{}", ::getpid(), counter++, what);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+int spawn(const std::vector<std::string>& argv, const fs::path& out) {
+    const int pid = ::fork();
+    if (pid == 0) {
+        const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int e = ::open((out.string() + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        ::dup2(o, STDOUT_FILENO);
+        ::dup2(e, STDERR_FILENO);
+        std::vector<char*> args;
+        for (const auto& a : argv) {
+            args.push_back(const_cast<char*>(a.c_str()));
+        }
+        args.push_back(nullptr);
+        ::execv(args[0], args.data());
+        ::_exit(127);
+    }
+    return pid;
+}
+
+int wait_exit(int pid, std::chrono::seconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+        int status = 0;
+        if (::waitpid(pid, &status, WNOHANG) == pid) {
+            return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        }
+        if (std::chrono::steady_clock::now() > deadline) {
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+            return -1;
+        }
+        std::this_thread::sleep_for(5ms);
+    }
+}
+
+
+std::vector<std::vector<std::int64_t>> numbers(const std::string& text) {
+    std::vector<std::vector<std::int64_t>> rows;
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+        std::istringstream l(line);
+        std::vector<std::int64_t> row;
+        long long v = 0;
+        while (l >> v) {
+            row.push_back(v);
+        }
+        if (!row.empty()) {
+            rows.push_back(std::move(row));
+        }
+    }
+    return rows;
+}
+
+std::vector<Event> read_events(const fs::path& path) {
+    std::vector<Event> events;
+    for (const auto& row : numbers(slurp(path))) {
+        if (row.size() == 3) {
+            events.push_back({row[0], static_cast<int>(row[1]), static_cast<int>(row[2])});
+        }
+    }
+    std::ranges::sort(events, {}, &Event::ns);
+    return events;
+}
+
+double us(std::int64_t ns) {
+    return static_cast<double>(ns) / 1000.0;
+}
+
+std::string field(const std::string& summary, const std::string& key) {
+    const auto at = summary.find(key + "=");
+    if (at == std::string::npos) {
+        return "0";
+    }
+    const auto end = summary.find(' ', at);
+    return summary.substr(at + key.size() + 1,
+                          end == std::string::npos ? std::string::npos : end - at - key.size() - 1);
+}
+
+}  // namespace drivebus::bench
