@@ -27,16 +27,6 @@ void note(const std::string& text) {
     std::fprintf(stderr, "bench: %s\n", text.c_str());
 }
 
-bool roudi_answers() {
-    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/roudi");
-    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
-    ::close(fd);
-    return ok;
-}
-
 // Another RouDi (another drivebusd, a test run) must be gone before ours starts.
 void wait_for_no_roudi() {
     bool told = false;

@@ -11,11 +11,13 @@
 #include <string>
 #include <vector>
 
+#include "sim_process.hpp"
 #include "stats.hpp"
 
 namespace drivebus::bench {
 
 namespace fs = std::filesystem;
+using test::roudi_answers;
 
 struct Failure : std::runtime_error {
     using std::runtime_error::runtime_error;
@@ -25,8 +27,7 @@ std::int64_t now_ns();
 double us(std::int64_t ns);
 void note(const std::string& text);
 
-// Whether an iceoryx RouDi answers on /tmp/roudi; waiting (30 min at most) until none does.
-bool roudi_answers();
+// Waits (30 min at most) until no iceoryx RouDi answers on /tmp/roudi.
 void wait_for_no_roudi();
 
 std::string slurp(const fs::path& path);

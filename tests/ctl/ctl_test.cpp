@@ -62,16 +62,6 @@ void expect_one_line_error(const Run& r, const std::string& text) {
     EXPECT_NE(r.err.find(text), std::string::npos) << "wanted '" << text << "'\n" << describe(r);
 }
 
-bool roudi_answers() {
-    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/roudi");
-    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
-    ::close(fd);
-    return ok;
-}
-
 void sim_set(Stack& stack, int address, const std::string& reg, int value) {
     const auto reply = stack.sim().command("set " + std::to_string(address) + " " + reg + " " + std::to_string(value));
     ASSERT_EQ(reply.rfind("ok", 0), 0U) << reply;

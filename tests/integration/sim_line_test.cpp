@@ -79,7 +79,12 @@ TEST_F(SimLine, IgnoresOtherAddressesAndBrokenFrames) {
 
 TEST_F(SimLine, CrcFault) {
     ASSERT_EQ(sim.command("fault 1 crc=1").rfind("ok", 0), 0U);
-    const auto r = master.transact(kReadFD00, 200ms);
+    // A loaded machine's pty can hold part of the reply back past t3.5, splitting it into two
+    // frames (one of them too short): that is the pty, not the fault under test, so try again.
+    auto r = master.transact(kReadFD00, 200ms);
+    for (int attempt = 1; attempt < 5 && r.discarded.size() > 1; ++attempt) {
+        r = master.transact(kReadFD00, 200ms);
+    }
     EXPECT_FALSE(r.decoded);
     EXPECT_FALSE(r.reply);
     ASSERT_EQ(r.bytes.size(), 7U);

@@ -181,6 +181,16 @@ std::string Child::output() const {
     return slurp(log_);
 }
 
+bool roudi_answers() {
+    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/roudi");
+    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(fd);
+    return ok;
+}
+
 std::pair<int, std::string> run_program(const std::vector<std::string>& argv) {
     const fs::path dir = fresh_dir();
     const fs::path log = dir / "out.log";

@@ -65,6 +65,9 @@ private:
     int pid_ = -1;
 };
 
+// Whether an iceoryx RouDi answers on /tmp/roudi (one runs on this machine).
+bool roudi_answers();
+
 // Runs a program to completion (10 s at most); returns its exit status and output.
 std::pair<int, std::string> run_program(const std::vector<std::string>& argv);
 
