@@ -6,8 +6,8 @@
 #include <termios.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <fmt/format.h>
+#include <atomic>
 #include <sstream>
 #include <thread>
 
@@ -115,10 +115,10 @@ std::vector<double> cyclictest(std::size_t n, bool loaded, const fs::path& dir) 
                                                 std::to_string(n / 1000 + 60) + "s", "--quiet"});
         std::this_thread::sleep_for(500ms);
     }
-    const int pid = spawn({"/usr/bin/cyclictest", "--mlockall", "--priority=80", "--interval=1000",
-                           "--loops=" + std::to_string(n), "--quiet", "--histogram=5000", "--histfile=" + hist.string(),
-                           "--threads=1"},
-                          dir / "cyclictest.out");
+    const int pid =
+        spawn({"/usr/bin/cyclictest", "--mlockall", "--priority=80", "--interval=1000", "--loops=" + std::to_string(n),
+               "--quiet", "--histogram=5000", "--histfile=" + hist.string(), "--threads=1"},
+              dir / "cyclictest.out");
     const int status = wait_exit(pid, std::chrono::seconds(60 + n / 500));
     if (stress) {
         stress->stop();
@@ -166,8 +166,9 @@ void floors(const Options& o, std::vector<Row>& rows) {
     // (the host stops polling a halted virtual CPU after a while): a reply comes a few hundred
     // microseconds after the request, a client's request onto an idle line.
     add("floor: pty hop, a byte written to a pty → a thread in epoll_wait on the other side reads it, 300 µs apart",
-        pty_hop(n, 300us), "the kernel's pty worker and one wake-up, as a reply reaches a waiting master: under "
-                           "items 2 and 5");
+        pty_hop(n, 300us),
+        "the kernel's pty worker and one wake-up, as a reply reaches a waiting master: under "
+        "items 2 and 5");
     add("floor: pty hop, the same 3 ms apart", pty_hop(n, 3ms),
         "as a request reaches a drive on a quiet line: under item 1");
     add("floor: iceoryx 2.0 alone, a publish of a snapshot-sized sample → a Listener callback in another process",

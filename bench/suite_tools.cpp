@@ -7,9 +7,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cstdio>
-#include <fmt/format.h>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -52,8 +52,8 @@ std::string slurp(const fs::path& path) {
 
 fs::path fresh_dir(const std::string& what) {
     static int counter = 0;
-    const fs::path dir = fs::temp_directory_path() /
-                         fmt::format("drivebus-bench-{}-{}-{}", ::getpid(), counter++, what);
+    const fs::path dir =
+        fs::temp_directory_path() / fmt::format("drivebus-bench-{}-{}-{}", ::getpid(), counter++, what);
     fs::remove_all(dir);
     fs::create_directories(dir);
     return dir;
@@ -92,7 +92,6 @@ int wait_exit(int pid, std::chrono::seconds timeout) {
         std::this_thread::sleep_for(5ms);
     }
 }
-
 
 std::vector<std::vector<std::int64_t>> numbers(const std::string& text) {
     std::vector<std::vector<std::int64_t>> rows;

@@ -20,10 +20,10 @@ namespace drivebus::bus {
 
 // One request's write, as the bus thread saw it.
 struct WriteTrace {
-    rtu::Instant due;      // its poll's due time or the end of the t3.5 silence, whichever is later
-    rtu::Instant writing;  // write() called
-    rtu::Instant written;  // write() returned
-    unsigned attempt = 1;  // 2 and more: a retry
+    rtu::Instant due;                       // its poll's due time or the end of the t3.5 silence, whichever is later
+    rtu::Instant writing;                   // write() called
+    rtu::Instant written;                   // write() returned
+    unsigned attempt = 1;                   // 2 and more: a retry
     std::optional<rtu::Instant> scheduled;  // a poll cycle's first request: when its period made it due
 };
 

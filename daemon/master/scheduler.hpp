@@ -44,7 +44,7 @@ struct Job {
     std::uint64_t client = 0;
     std::uint64_t correlation = 0;
     rtu::RequestAdu request;
-    std::optional<unsigned> retries;  // overrides the bus setting (probes: none)
+    std::optional<unsigned> retries;        // overrides the bus setting (probes: none)
     std::optional<rtu::Instant> scheduled;  // a poll cycle's first request: when its period made it due
 };
 inline constexpr std::size_t kNoDrive = static_cast<std::size_t>(-1);
