@@ -156,11 +156,7 @@ void floors(const Options& o, std::vector<Row>& rows) {
     const fs::path dir = fresh_dir("floors");
     note("floors: a pty hop, an iceoryx hop, cyclictest idle and under stress-ng");
     const auto add = [&](const std::string& what, const std::vector<double>& samples, const std::string& notes) {
-        Row r{"0", what};
-        r.samples = samples.size();
-        r.summary = summarize(samples);
-        r.notes = notes;
-        rows.push_back(r);
+        rows.push_back(samples_row("0", what, samples, notes));
     };
     // On a virtual machine the wake-up of a thread costs more the longer its CPU was idle
     // (the host stops polling a halted virtual CPU after a while): a reply comes a few hundred

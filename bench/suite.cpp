@@ -298,21 +298,15 @@ void latency(const Options& o, std::vector<Row>& rows) {
         r.target = "p99 ≤ 50 µs";
         r.met = r.summary->p99 <= 50.0;
         rows.push_back(r);
-        Row p{"2", "of which the pty: simulator writes the last byte → drivebusd's read() returns it"};
-        p.samples = pty_part.size();
-        p.summary = bench::summarize(pty_part);
-        p.notes = "the reply's time in the snapshot is the moment drivebusd's read returned its last byte";
-        rows.push_back(p);
-        Row d{"2", "of which drivebus: drivebusd's read() returns → subscriber holds the snapshot"};
-        d.samples = drivebus_part.size();
-        d.summary = bench::summarize(drivebus_part);
-        d.notes = "framing, publication, iceoryx's notification, the client's Listener thread";
-        rows.push_back(d);
-        Row q{"2", "of which drivebusd: read() returns → the snapshot is published"};
-        q.samples = daemon_part.size();
-        q.summary = bench::summarize(daemon_part);
-        q.notes = "the snapshot's published_ns, taken before the sample is loaned and published";
-        rows.push_back(q);
+        rows.push_back(samples_row("2", "of which the pty: simulator writes the last byte → drivebusd's read() returns it",
+                                   pty_part,
+                                   "the reply's time in the snapshot is the moment drivebusd's read returned its last "
+                                   "byte"));
+        rows.push_back(samples_row("2", "of which drivebus: drivebusd's read() returns → subscriber holds the snapshot",
+                                   drivebus_part,
+                                   "framing, publication, iceoryx's notification, the client's Listener thread"));
+        rows.push_back(samples_row("2", "of which drivebusd: read() returns → the snapshot is published", daemon_part,
+                                   "the snapshot's published_ns, taken before the sample is loaned and published"));
     }
 
     if (!o.runs(1) && !o.runs(3)) {

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <thread>
+#include <utility>
 
 namespace drivebus::bench {
 
@@ -124,6 +125,14 @@ std::vector<Event> read_events(const fs::path& path) {
 
 double us(std::int64_t ns) {
     return static_cast<double>(ns) / 1000.0;
+}
+
+Row samples_row(std::string item, std::string what, const std::vector<double>& samples, std::string notes) {
+    Row r{std::move(item), std::move(what)};
+    r.samples = samples.size();
+    r.summary = summarize(samples);
+    r.notes = std::move(notes);
+    return r;
 }
 
 std::string field(const std::string& summary, const std::string& key) {

@@ -61,6 +61,9 @@ struct Row {
     std::optional<bool> met{};
 };
 
+// A row of percentiles over `samples` (µs), without a target.
+Row samples_row(std::string item, std::string what, const std::vector<double>& samples, std::string notes);
+
 struct Options {
     bool smoke = false;
     std::size_t sample_count = 0;  // 0: 10,000, or 300 with --smoke
