@@ -3,7 +3,9 @@
 // is iceoryx's own cost on this machine (loan, publish, the notification, the Listener thread's
 // wake-up), with no drivebus code on the path. Needs a RouDi.
 //
-//   bench_iox_floor sub N          prints N latencies in ns (publish → callback), one a line
+//   bench_iox_floor sub N [BUS DRIVE]
+//                                  prints N latencies in ns (publish → callback), one a line;
+//                                  with BUS and DRIVE, of drivebusd's own snapshots of DRIVE
 //   bench_iox_floor pub N PAUSE_US publishes until the subscriber has gone, or N + 1000 samples
 #include <unistd.h>
 
@@ -35,11 +37,11 @@ std::int64_t now_ns() {
         .count();
 }
 
-int subscribe(std::size_t wanted) {
+int subscribe(std::size_t wanted, const iox::capro::ServiceDescription& service) {
     iox::runtime::PoshRuntime::initRuntime("bench-iox-floor-sub");
     iox::popo::SubscriberOptions options;
     options.queueCapacity = 2;
-    iox::popo::Subscriber<Sample> subscriber(kService, options);
+    iox::popo::Subscriber<Sample> subscriber(service, options);
     std::mutex mutex;
     std::vector<std::int64_t> latencies;
     latencies.reserve(wanted);
@@ -112,11 +114,18 @@ int publish(std::size_t count, int pause_us) {
 int main(int argc, char** argv) {
     const std::string mode = argc > 2 ? argv[1] : "";
     if (mode == "sub" && argc == 3) {
-        return subscribe(static_cast<std::size_t>(std::atol(argv[2])));
+        return subscribe(static_cast<std::size_t>(std::atol(argv[2])), kService);
+    }
+    if (mode == "sub" && argc == 5) {
+        const std::string event = std::string(drivebus::shm::kDriveEventPrefix) + argv[4];
+        return subscribe(static_cast<std::size_t>(std::atol(argv[2])),
+                         {iox::capro::IdString_t(iox::cxx::TruncateToCapacity, std::string(drivebus::shm::kService)),
+                          iox::capro::IdString_t(iox::cxx::TruncateToCapacity, argv[3]),
+                          iox::capro::IdString_t(iox::cxx::TruncateToCapacity, event)});
     }
     if (mode == "pub" && argc == 4) {
         return publish(static_cast<std::size_t>(std::atol(argv[2])), std::atoi(argv[3]));
     }
-    std::fprintf(stderr, "usage: bench_iox_floor sub N | pub N PAUSE_US\n");
+    std::fprintf(stderr, "usage: bench_iox_floor sub N [BUS DRIVE] | pub N PAUSE_US\n");
     return 2;
 }
