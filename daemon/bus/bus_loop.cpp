@@ -240,7 +240,10 @@ private:
         if (!spin_to_send(now)) {
             return;
         }
-        const rtu::Instant due = engine_.next_send_at().value_or(engine_.line_free_at());
+        // Only a trace needs to know when the request became due (the scheduler's drives are
+        // looked through for it, on every wake-up).
+        const rtu::Instant due =
+            options_.on_written ? engine_.next_send_at().value_or(engine_.line_free_at()) : rtu::Instant{};
         const auto adu = engine_.transmission(now);
         if (!adu) {
             return;
@@ -314,9 +317,11 @@ private:
         // even on a quiet bus (the service watchdog watches it).
         const rtu::Instant now = sys::now();
         consider(now + kLivenessTick);
-        if (const auto send_at = engine_.next_send_at();
-            options_.send_spin.count() > 0 && send_at && *send_at == *wake && *wake - now > options_.send_spin) {
-            *wake -= options_.send_spin;
+        if (options_.send_spin.count() > 0) {
+            if (const auto send_at = engine_.next_send_at();
+                send_at && *send_at == *wake && *wake - now > options_.send_spin) {
+                *wake -= options_.send_spin;
+            }
         }
         // While a reply comes in, each character moves the frame's deadline later. A timer
         // already armed for an earlier, future instant stays: when it fires, drive() runs and
