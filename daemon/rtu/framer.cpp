@@ -1,5 +1,7 @@
 #include "rtu/framer.hpp"
 
+#include <algorithm>
+
 #include "rtu/codec.hpp"
 #include "rtu/crc.hpp"
 
@@ -54,7 +56,17 @@ void Framer::receive(RxChar c, Instant t) noexcept {
         // Timestamps mark the end of a character, so the silence before this one is the
         // distance between ends less one character time.
         const Duration silence = t - last_ - timing_.character;
-        if (silence >= timing_.t3_5) {
+        if (held_ && reply_open() && t > reply_bound()) {
+            // Held through a silence, it still runs past the earliest end of a reply on time:
+            // the silence was on the wire.
+            fault_ = FrameFault::InterCharacterGap;
+        } else if (silence > timing_.t1_5 && reply_open() && t <= reply_bound()) {
+            // The reply cannot have ended yet: a silence here is a delivery held back (or a
+            // real gap the CRC will judge). Keep the frame open.
+            held_ = true;
+            resume_at_ = adu_.size();
+            resume_first_ = t;
+        } else if (silence >= timing_.t3_5) {
             finish_frame();
         } else if (silence > timing_.t1_5) {
             if (expectation_) {
@@ -76,9 +88,41 @@ void Framer::receive(RxChar c, Instant t) noexcept {
     }
     last_ = t;
     last_activity_ = t;
+    note_reply_bound();
     if (expectation_ && !fault_ && !reply_failed_) {
         try_complete_reply();
+        note_reply_bound();
     }
+}
+
+void Framer::note_reply_bound() noexcept {
+    if (!expectation_ || !open_ || adu_.empty() || adu_[0] != expectation_->address) {
+        return;
+    }
+    reply_line_free_ = reply_bound();
+}
+
+bool Framer::reply_open() const noexcept {
+    return open_ && expectation_ && !fault_ && !reply_failed_ && !adu_.empty() && adu_[0] == expectation_->address;
+}
+
+// The reply's length as far as the bytes so far tell: an exception's once the function says
+// so, the request's normal reply length otherwise.
+std::size_t Framer::bound_length() const noexcept {
+    const ReplyLength shape = expected_reply_length(*expectation_);
+    const std::size_t normal = shape.length != 0 ? shape.length : ReplyLength::kException;
+    if (adu_.size() >= 2) {
+        const std::size_t needed = reply_bytes_needed(*expectation_, adu_.bytes());
+        if (needed != 0) {
+            return needed;
+        }
+    }
+    return normal;
+}
+
+Instant Framer::reply_bound() const noexcept {
+    const auto characters = static_cast<std::int64_t>(bound_length()) - 1;
+    return first_ + timing_.character * characters + timing_.t3_5;
 }
 
 void Framer::start_frame(Instant t) noexcept {
@@ -87,13 +131,17 @@ void Framer::start_frame(Instant t) noexcept {
     frame_bytes_ = 0;
     fault_.reset();
     reply_failed_ = false;
+    held_ = false;
+    resume_at_ = 0;
     first_ = t;
 }
 
 void Framer::try_complete_reply() noexcept {
     const std::size_t needed = reply_bytes_needed(*expectation_, adu_.bytes());
     if (needed == 0) {
-        reply_failed_ = true;  // not a reply to our request: frame it by silence
+        if (!resume_after_silence()) {
+            reply_failed_ = true;  // not a reply to our request: frame it by silence
+        }
         return;
     }
     if (adu_.size() < needed) {
@@ -101,12 +149,36 @@ void Framer::try_complete_reply() noexcept {
     }
     if (adu_.size() == needed && crc_ok(adu_.bytes())) {
         ++stats_.frames;
-        push_event(Frame{adu_, first_, last_});
+        if (held_) {
+            ++stats_.held_replies;
+        }
+        push_event(Frame{adu_, first_, last_, held_});
         open_ = false;
         expectation_.reset();
         return;
     }
-    reply_failed_ = true;
+    if (!resume_after_silence()) {
+        reply_failed_ = true;
+    }
+}
+
+// A held frame that is not the reply: what came before its last silence was noise that began
+// with the slave's address; the reply may start after it.
+bool Framer::resume_after_silence() noexcept {
+    if (!held_ || resume_at_ == 0 || resume_at_ >= adu_.size()) {
+        return false;
+    }
+    ++stats_.gap_errors;
+    push_event(DiscardedFrame{FrameFault::InterCharacterGap, resume_at_, first_, resume_first_});
+    Adu rest;
+    (void)rest.append(adu_.bytes().subspan(resume_at_));
+    adu_ = rest;
+    frame_bytes_ = adu_.size();
+    first_ = resume_first_;
+    held_ = false;
+    resume_at_ = 0;
+    try_complete_reply();
+    return true;
 }
 
 void Framer::finish_frame() noexcept {
@@ -139,9 +211,17 @@ void Framer::discard(FrameFault fault) noexcept {
 }
 
 void Framer::poll(Instant now) noexcept {
-    if (open_ && now >= silence_known(last_)) {
+    if (open_ && now >= close_at()) {
         finish_frame();
     }
+}
+
+Instant Framer::close_at() const noexcept {
+    const Instant by_silence = silence_known(last_);
+    if (reply_open()) {
+        return std::max(by_silence, reply_bound());
+    }
+    return by_silence;
 }
 
 // Characters are seen when they end: a character that began just inside t3.5 is still on the
@@ -154,12 +234,13 @@ std::optional<Instant> Framer::deadline() const noexcept {
     if (!open_) {
         return std::nullopt;
     }
-    return silence_known(last_);
+    return close_at();
 }
 
 void Framer::expect_reply(const RequestAdu& request) noexcept {
     expectation_ = request;
     reply_failed_ = false;
+    reply_line_free_.reset();
 }
 
 void Framer::reset() noexcept {
@@ -167,7 +248,10 @@ void Framer::reset() noexcept {
     adu_.clear();
     frame_bytes_ = 0;
     fault_.reset();
+    held_ = false;
+    resume_at_ = 0;
     last_activity_.reset();
+    reply_line_free_.reset();
     parmrk_.reset();
 }
 

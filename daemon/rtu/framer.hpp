@@ -13,8 +13,18 @@
 //    that does not fit (other slave or function, bad CRC at that length) is framed by silence.
 //
 // Inside a frame, a silence longer than t1.5 spoils it (spec behaviour, for the slave side).
-// While expecting a reply, bytes before such a silence are discarded as noise and the reply
-// is looked for from the next byte, so a turnaround glitch does not cost the reply.
+//
+// The master reads the kernel's delivery, not the wire: a worker thread at normal priority
+// hands received bytes to the reader, and on a busy machine it holds them back for
+// milliseconds, so the master sees silences that were never on the wire. While a reply from
+// the addressed slave is open, the wire's physics bound it instead: its last character cannot
+// end before its first one's end + (expected length - 1) character times. Until that bound +
+// t3.5 (reply_line_free()) the frame stays open through any silence, and if the rest arrives
+// and it completes at its expected length with a good CRC it is the reply (Frame::held). The
+// master never transmits before that bound either (see BusEngine::line_free_at()).
+// A held frame that does not complete as the reply is looked at again from the byte after its
+// last silence, so noise before the reply that happened to start with the slave's address
+// does not cost the reply.
 #pragma once
 
 #include <array>
@@ -41,8 +51,9 @@ enum class FrameFault : std::uint8_t {
 
 struct Frame {
     Adu adu;
-    Instant first{};  // end of the first character
-    Instant last{};   // end of the last character
+    Instant first{};    // end of the first character
+    Instant last{};     // end of the last character
+    bool held = false;  // a reply that came through a silence longer than t1.5 (late delivery)
 };
 
 struct DiscardedFrame {
@@ -63,6 +74,7 @@ struct FramerStats {
     std::uint64_t parity_errors = 0;
     std::uint64_t noise = 0;           // too-short frames
     std::uint64_t events_dropped = 0;  // events not taken before the queue filled
+    std::uint64_t held_replies = 0;    // replies completed through a silence (Frame::held)
 };
 
 // How the bytes handed to feed() are marked.
@@ -86,8 +98,12 @@ public:
     void poll(Instant now) noexcept;
 
     // When poll() must next be called: t3.5 + one character after the last character of an
-    // open frame.
+    // open frame, or for an open reply from the addressed slave its wire bound if later.
     [[nodiscard]] std::optional<Instant> deadline() const noexcept;
+    // Since expect_reply(): once a reply from the addressed slave has begun, the earliest the
+    // line can be free again (its first character's end + (expected length - 1) characters +
+    // t3.5), whatever silence was observed.
+    [[nodiscard]] std::optional<Instant> reply_line_free() const noexcept { return reply_line_free_; }
     // End of the last character received, if any: the silence clock.
     [[nodiscard]] std::optional<Instant> last_activity() const noexcept { return last_activity_; }
     [[nodiscard]] bool frame_open() const noexcept { return open_; }
@@ -111,6 +127,12 @@ private:
     void start_frame(Instant t) noexcept;
     void finish_frame() noexcept;
     void try_complete_reply() noexcept;
+    [[nodiscard]] bool reply_open() const noexcept;
+    [[nodiscard]] std::size_t bound_length() const noexcept;
+    [[nodiscard]] Instant reply_bound() const noexcept;
+    [[nodiscard]] bool resume_after_silence() noexcept;
+    void note_reply_bound() noexcept;
+    [[nodiscard]] Instant close_at() const noexcept;
     void discard(FrameFault fault) noexcept;
     void push_event(FramerEvent event) noexcept;
 
@@ -128,6 +150,10 @@ private:
 
     std::optional<RequestAdu> expectation_;
     bool reply_failed_ = false;  // the expected-length check failed for this frame
+    bool held_ = false;          // the open reply came through a silence longer than t1.5
+    std::size_t resume_at_ = 0;  // the first byte after that silence
+    Instant resume_first_{};
+    std::optional<Instant> reply_line_free_;
 
     static constexpr std::size_t kQueueSize = 8;
     std::array<FramerEvent, kQueueSize> queue_{};
