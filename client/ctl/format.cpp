@@ -108,6 +108,7 @@ int exit_code(ErrorKind kind) noexcept {
     switch (kind) {
     case ErrorKind::Exception:
     case ErrorKind::Timeout:
+    case ErrorKind::LateReply:
     case ErrorKind::BadFrame: return kExitDrive;
     case ErrorKind::InvalidArgument: return kExitUsage;
     case ErrorKind::Rejected:

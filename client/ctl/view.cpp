@@ -82,13 +82,15 @@ std::vector<std::pair<std::string, std::uint64_t>> bus_counters(const shm::BusCo
             {"queue_rejections", c.queue_rejections},
             {"line_down", c.line_down},
             {"requests_served", c.requests_served},
-            {"lease_expiries", c.lease_expiries}};
+            {"lease_expiries", c.lease_expiries},
+            {"late_replies", c.late_replies},
+            {"held_replies", c.held_replies}};
 }
 
 std::vector<std::pair<std::string, std::uint64_t>> drive_counters(const shm::DriveCounters& c) {
     return {{"requests", c.requests},   {"replies", c.replies},       {"timeouts", c.timeouts},
             {"bad_frames", c.bad_frames}, {"retries", c.retries},     {"exceptions", c.exceptions},
-            {"absent_transitions", c.absent_transitions}};
+            {"absent_transitions", c.absent_transitions}, {"late", c.late}};
 }
 
 std::string counters_text(const std::vector<std::pair<std::string, std::uint64_t>>& counters) {

@@ -138,6 +138,7 @@ std::string_view to_string(ErrorKind kind) noexcept {
     switch (kind) {
     case ErrorKind::Exception: return "exception";
     case ErrorKind::Timeout: return "timeout";
+    case ErrorKind::LateReply: return "late reply";
     case ErrorKind::BadFrame: return "bad frame";
     case ErrorKind::Rejected: return "rejected";
     case ErrorKind::QueueFull: return "queue full";
@@ -624,6 +625,12 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
         e.kind = ErrorKind::Timeout;
         e.message = what + " did not answer (" + std::to_string(r.attempts) +
                     " attempts): check its address, wiring and line settings";
+        break;
+    case shm::Status::Late:
+        e.kind = ErrorKind::LateReply;
+        e.message = what + " answers too late: after about " + std::to_string((r.late_us + 500) / 1000) +
+                    " ms, past the response time-out (" + std::to_string(r.attempts) +
+                    " attempts): raise the bus's response_timeout above that";
         break;
     case shm::Status::BadFrame:
         e.kind = ErrorKind::BadFrame;

@@ -244,7 +244,10 @@ private:
         // looked through for it, on every wake-up).
         const rtu::Instant due =
             options_.on_written ? engine_.next_send_at().value_or(engine_.line_free_at()) : rtu::Instant{};
-        const auto adu = engine_.transmission(now);
+        // Bytes already in the input queue mean the line is not silent: read them first (the
+        // port is readable, so the loop comes back here after on_readable()).
+        const std::size_t waiting = engine_.line_free(now) ? port_->input_waiting() : 0;
+        const auto adu = engine_.transmission(now, waiting);
         if (!adu) {
             return;
         }

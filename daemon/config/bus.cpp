@@ -145,6 +145,9 @@ void read_timing(Section& s, const toml::table& table, BusConfig& bus) {
     bus.response_timeout = duration(s, table, "response_timeout", 1ms, 10s).value_or(bus.response_timeout);
     bus.retries = static_cast<unsigned>(s.integer("retries", 0, 10).value_or(bus.retries));
     bus.broadcast_turnaround = duration(s, table, "broadcast_turnaround", 0ns, 10s).value_or(bus.broadcast_turnaround);
+    if (const auto guard = duration(s, table, "late_reply_guard", 0ns, 10s)) {
+        bus.late_reply_guard = *guard;
+    }
     read_absent_backoff(s, table, bus);
     bus.queue_limit = static_cast<std::size_t>(s.integer("queue_limit", 1, 4096).value_or(64));
     bus.lock_dir = absolute_path(s, "lock_dir", Need::Optional).value_or("");
@@ -202,6 +205,7 @@ BusConfig read_bus(const toml::table& table, std::size_t index, Errors& errors, 
                   "response_timeout",
                   "retries",
                   "broadcast_turnaround",
+                  "late_reply_guard",
                   "absent_backoff",
                   "queue_limit",
                   "lock_dir",

@@ -66,6 +66,9 @@ struct BusConfig {
     Duration response_timeout = std::chrono::milliseconds(100);
     unsigned retries = 2;                    // after the first attempt
     Duration broadcast_turnaround = std::chrono::milliseconds(10);
+    // After a time-out, how long a late reply may still come before anything is sent again;
+    // unset: response_timeout.
+    std::optional<Duration> late_reply_guard;
     Duration absent_backoff_min = std::chrono::seconds(1);  // re-probe of an absent drive
     Duration absent_backoff_max = std::chrono::seconds(30);
     std::size_t queue_limit = 64;            // client requests waiting on this bus

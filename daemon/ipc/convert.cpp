@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <numeric>
 #include <unistd.h>
 
@@ -48,7 +49,7 @@ void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noe
     out.health = to_shm(in.health);
     const auto& c = in.counters;
     out.counters = {c.requests, c.replies, c.timeouts, c.bad_frames, c.retries, sum(c.exceptions),
-                    c.absent_transitions};
+                    c.absent_transitions, c.late};
     std::size_t n = 0;
     for (const auto& [address, v] : in.registers) {  // std::map: sorted by address
         if (n == out.registers.size()) {
@@ -79,7 +80,7 @@ void fill_status(const config::BusConfig& bus, const master::BusStatus& in,
     out.counters = {c.transmissions, c.replies,    c.timeouts,        c.crc_errors,     c.gap_errors,
                     c.parity_errors, c.overflows,  c.noise,           c.foreign,        c.malformed,
                     c.echo_mismatches, c.retries,  c.broadcasts,      c.queue_rejections, c.line_down,
-                    sum(c.exceptions), 0, 0};
+                    sum(c.exceptions), 0, 0, c.late_replies, c.held_replies};
     out.reply_latency = timing(in.reply_latency);
     out.extra_gap = timing(in.extra_gap);
     const auto n = std::min(bus.drives.size(), out.drives.size());
@@ -106,6 +107,11 @@ void fill_response(const master::Result& result, shm::Response& out) noexcept {
     case master::Outcome::BadFrame:
     case master::Outcome::EchoMismatch: out.status = shm::Status::BadFrame; break;
     case master::Outcome::BusDown: out.status = shm::Status::BusDown; break;
+    case master::Outcome::Late:
+        out.status = shm::Status::Late;
+        out.late_us = static_cast<std::uint32_t>(
+            std::min<std::int64_t>(ns(result.late_latency) / 1000, std::numeric_limits<std::uint32_t>::max()));
+        break;
     }
     if (const auto code = result.exception()) {
         out.status = shm::Status::Exception;

@@ -25,7 +25,8 @@ BusEngine::BusEngine(const config::BusConfig& bus, rtu::CharacterTiming timing, 
       framer_(timing, rtu::InputMarking::Parmrk),
       echo_(echo_setting(bus.echo)),
       scheduler_(bus, now),
-      options_{bus.response_timeout, bus.retries, bus.broadcast_turnaround} {
+      options_{bus.response_timeout, bus.retries, bus.broadcast_turnaround,
+               bus.late_reply_guard.value_or(bus.response_timeout), timing.t3_5} {
     status_.name = bus.name;
 }
 
@@ -34,6 +35,7 @@ void BusEngine::line_up(rtu::Instant now) {
     status_.up = true;
     framer_.reset();
     last_tx_end_.reset();
+    quiet_until_.reset();
     scheduler_.line_up(now);
     ++status_.sequence;
 }
@@ -62,7 +64,19 @@ rtu::Instant BusEngine::line_free_at() const noexcept {
     if (last_tx_end_ && *last_tx_end_ > last) {
         last = *last_tx_end_;
     }
-    return last + timing_.t3_5;
+    rtu::Instant free = last + timing_.t3_5;
+    if (const auto bound = framer_.reply_line_free(); bound && *bound > free) {
+        free = *bound;
+    }
+    if (quiet_until_ && *quiet_until_ > free) {
+        free = *quiet_until_;
+    }
+    return free;
+}
+
+bool BusEngine::awaiting_reply() const noexcept {
+    return transaction_ && (transaction_->state() == Transaction::State::AwaitingReply ||
+                            transaction_->state() == Transaction::State::Sending);
 }
 
 void BusEngine::on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_time) {
@@ -94,7 +108,9 @@ void BusEngine::on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_
 void BusEngine::on_time(rtu::Instant now) {
     framer_.poll(now);
     take_events(now);
-    if (transaction_) {
+    // The response time-out runs until the reply begins: a frame coming in is judged when the
+    // framer closes it, by its completion, its wire bound or a silence.
+    if (transaction_ && !(awaiting_reply() && framer_.frame_open())) {
         const auto state = transaction_->state();
         transaction_->on_time(now);
         if (state == Transaction::State::AwaitingReply && transaction_->state() != state) {
@@ -110,13 +126,7 @@ void BusEngine::on_time(rtu::Instant now) {
 void BusEngine::take_events(rtu::Instant now) {
     while (auto event = framer_.next_event()) {
         if (const auto* frame = std::get_if<rtu::Frame>(&*event)) {
-            const auto verdict = transaction_ ? transaction_->on_frame(*frame) : Transaction::Verdict::Ignored;
-            switch (verdict) {
-            case Transaction::Verdict::Reply: ++status_.counters.replies; break;
-            case Transaction::Verdict::Malformed: ++status_.counters.malformed; break;
-            case Transaction::Verdict::Foreign:
-            case Transaction::Verdict::Ignored: ++status_.counters.foreign; break;
-            }
+            on_frame(*frame);
             continue;
         }
         const auto& discarded = std::get<rtu::DiscardedFrame>(*event);
@@ -130,9 +140,47 @@ void BusEngine::take_events(rtu::Instant now) {
         // A spoiled frame of a reply's size while awaiting the reply was the reply, or ruined
         // it: the attempt failed. Shorter noise is only counted; the reply may follow it.
         if (transaction_ && discarded.bytes >= rtu::kMinAduSize) {
-            transaction_->on_bad_frame(now);
+            transaction_->on_bad_frame(now, discarded.first);
         }
     }
+}
+
+void BusEngine::on_frame(const rtu::Frame& frame) {
+    const auto verdict = transaction_ ? transaction_->on_frame(frame) : Transaction::Verdict::Ignored;
+    const rtu::SlaveAddress from = frame.adu.empty() ? 0 : frame.adu[0];
+    switch (verdict) {
+    case Transaction::Verdict::Reply:
+        ++status_.counters.replies;
+        if (frame.held) {
+            ++status_.counters.held_replies;
+        }
+        return;
+    case Transaction::Verdict::Malformed: ++status_.counters.malformed; return;
+    case Transaction::Verdict::Late:
+        count_late(from, frame.first - last_tx_end_.value_or(frame.first));
+        return;
+    case Transaction::Verdict::Foreign:
+    case Transaction::Verdict::Ignored: break;
+    }
+    // From a slave whose attempt timed out, before its quiet time ended, or from the slave of
+    // the transaction in flight while it does not await a reply: a late reply.
+    const bool quiet = quiet_until_ && from == quiet_address_ && frame.first < *quiet_until_;
+    const bool current = transaction_ && from == transaction_->request().address && !awaiting_reply();
+    if (quiet || current) {
+        count_late(from, frame.first - last_tx_end_.value_or(frame.first));
+        return;
+    }
+    ++status_.counters.foreign;
+}
+
+// A late reply shows how late this slave answers: the line stays quiet that long (plus the
+// guard) after its next timed-out attempt.
+void BusEngine::count_late(rtu::SlaveAddress address, rtu::Duration latency) {
+    ++status_.counters.late_replies;
+    if (const auto drive = scheduler_.drive_at(address)) {
+        ++scheduler_.counters(*drive).late;
+    }
+    horizon_[address] = std::max(horizon_[address], latency + options_.late_reply_guard);
 }
 
 void BusEngine::count_exception(std::optional<rtu::ExceptionCode> code, std::array<std::uint64_t, 12>& table) {
@@ -151,6 +199,14 @@ void BusEngine::finish_if_done(rtu::Instant now) {
     transaction_.reset();
     job_.reset();
     framer_.expect_requests();
+    // A timed-out attempt's reply may still be on its way, and the next request to the slave
+    // could look the same: stay quiet for as long as the slave has been seen to answer late.
+    const bool timed_out = result.after_timeout || result.outcome == Outcome::Timeout || result.outcome == Outcome::Late;
+    const rtu::SlaveAddress address = job.request.address;
+    if (timed_out && last_tx_end_ && horizon_[address].count() > 0) {
+        quiet_until_ = *last_tx_end_ + horizon_[address];
+        quiet_address_ = address;
+    }
     if (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception) {
         if (job.request.address != rtu::kBroadcastAddress) {
             status_.reply_latency.add(result.latency);
@@ -177,8 +233,8 @@ void BusEngine::finish_if_done(rtu::Instant now) {
     }
 }
 
-std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now) {
-    if (!up_ || transmitting_ || framer_.frame_open() || now < line_free_at()) {
+std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now, std::size_t input_waiting) {
+    if (!up_ || transmitting_ || framer_.frame_open() || input_waiting > 0 || now < line_free_at()) {
         return std::nullopt;
     }
     if (!transaction_) {
@@ -272,9 +328,10 @@ std::optional<rtu::Instant> BusEngine::next_wakeup() const {
             wake = t;
         }
     };
-    // While a frame is open, its end (the framer's deadline) comes first.
+    // While a frame is open, its end (the framer's deadline) comes first; a reply coming in
+    // holds the response time-out.
     consider(framer_.deadline());
-    if (transaction_) {
+    if (transaction_ && !(awaiting_reply() && framer_.frame_open())) {
         consider(transaction_->deadline());
     }
     consider(next_send_at());

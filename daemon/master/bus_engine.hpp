@@ -1,8 +1,11 @@
 // The master side of one bus as a pure machine: bytes and times in, requests to write and
 // results out. It owns the framer, the echo filter, the transaction in flight and the
-// scheduler, and keeps the line rules: one transaction at a time, and a request never starts
+// scheduler, and keeps the line rules: one transaction at a time; a request never starts
 // less than t3.5 after the last activity on the line (a received character or the end of our
-// own transmission).
+// own transmission), nor before a reply that has begun can have ended (its wire bound, see
+// rtu::Framer), nor while received bytes wait to be read; and after a transaction whose
+// attempts timed out, not before that drive's late replies, as far as they have shown
+// themselves, have had time to come (they are discarded and counted as late).
 //
 // The bus loop (OS side) feeds it what the port reads, tells it when a request was written
 // and when it left the wire, and wakes it at next_wakeup().
@@ -39,12 +42,17 @@ public:
     // Time passed (a timer fired).
     void on_time(rtu::Instant now);
 
-    // The request to write now, if one is due and the line has been silent for t3.5.
-    [[nodiscard]] std::optional<rtu::Adu> transmission(rtu::Instant now);
+    // The request to write now, if one is due and the line is free. `input_waiting`: bytes
+    // the port has received and not yet handed over (TIOCINQ): the line is not silent.
+    [[nodiscard]] std::optional<rtu::Adu> transmission(rtu::Instant now, std::size_t input_waiting = 0);
     // It was written at `now`.
     void written(rtu::Instant now);
     // It left the wire at `tx_end` (transmitter empty, or its computed wire time).
     void transmitted(rtu::Instant tx_end);
+    // Whether a request could start now as far as the line goes (up, silent, no frame open).
+    [[nodiscard]] bool line_free(rtu::Instant now) const noexcept {
+        return up_ && !transmitting_ && !framer_.frame_open() && now >= line_free_at();
+    }
     // When the engine wants to be woken next.
     [[nodiscard]] std::optional<rtu::Instant> next_wakeup() const;
     // When transmission() will next have a request for the line, where that is known now: the
@@ -64,13 +72,22 @@ public:
     [[nodiscard]] const Scheduler& scheduler() const noexcept { return scheduler_; }
     [[nodiscard]] const rtu::Framer& framer() const noexcept { return framer_; }
     [[nodiscard]] EchoSetting echo() const noexcept { return echo_.setting(); }
-    // The earliest the next request may start: last line activity + t3.5.
+    // The earliest the next request may start: last line activity + t3.5, a begun reply's wire
+    // bound, a late-replying drive's quiet time.
     [[nodiscard]] rtu::Instant line_free_at() const noexcept;
+    // How late a drive's replies have been seen to come, plus the guard: after a timed-out
+    // attempt to it, the line stays quiet that long. Zero until it has answered late.
+    [[nodiscard]] rtu::Duration late_horizon(rtu::SlaveAddress address) const noexcept {
+        return horizon_[address];
+    }
 
 private:
     void take_events(rtu::Instant now);
     void finish_if_done(rtu::Instant now);
     void count_exception(std::optional<rtu::ExceptionCode> code, std::array<std::uint64_t, 12>& table);
+    void on_frame(const rtu::Frame& frame);
+    void count_late(rtu::SlaveAddress address, rtu::Duration latency);
+    [[nodiscard]] bool awaiting_reply() const noexcept;
 
     rtu::CharacterTiming timing_;
     EngineCallbacks callbacks_;
@@ -85,6 +102,10 @@ private:
     std::optional<Transaction> transaction_;
     std::optional<rtu::Instant> last_tx_end_;
     bool transmitting_ = false;
+    // After a transaction with a timed-out attempt: frames from that slave before this are late.
+    std::optional<rtu::Instant> quiet_until_;
+    rtu::SlaveAddress quiet_address_ = 0;
+    std::array<rtu::Duration, 256> horizon_{};
 };
 
 }  // namespace drivebus::master

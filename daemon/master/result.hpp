@@ -17,6 +17,7 @@ enum class Outcome : std::uint8_t {
     BadFrame,      // the last attempt got a reply with a bad CRC, a gap or a parity error
     EchoMismatch,  // the last attempt's echo differed from what was sent: a collision
     BusDown,       // the line is not open
+    Late,          // every attempt timed out, and the slave's replies came after it
 };
 
 [[nodiscard]] std::string_view to_string(Outcome outcome) noexcept;
@@ -27,6 +28,9 @@ struct Result {
     unsigned attempts = 0;
     rtu::Duration latency{};  // from the request leaving the wire to the reply's last character
     rtu::Instant finished{};
+    bool after_timeout = false;     // a reply that came on a retry, after an attempt timed out
+    unsigned late_replies = 0;      // replies discarded because they came after the time-out
+    rtu::Duration late_latency{};   // the latest of them, from its attempt leaving the wire
 
     [[nodiscard]] std::optional<rtu::ExceptionCode> exception() const noexcept {
         if (response) {

@@ -25,6 +25,7 @@ struct DriveCounters {
     std::uint64_t bad_frames = 0;  // replies spoiled (CRC, gap, parity) or malformed
     std::uint64_t retries = 0;
     std::uint64_t absent_transitions = 0;
+    std::uint64_t late = 0;        // replies that came after their attempt timed out: discarded
     std::array<std::uint64_t, 12> exceptions{};  // by code (index 0: codes above 11)
 };
 
@@ -69,6 +70,8 @@ struct BusCounters {
     std::uint64_t broadcasts = 0;
     std::uint64_t queue_rejections = 0;
     std::uint64_t line_down = 0;  // times the device went away
+    std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
+    std::uint64_t held_replies = 0;  // replies whose delivery was held back and still completed
     std::array<std::uint64_t, 12> exceptions{};
 };
 

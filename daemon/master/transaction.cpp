@@ -1,5 +1,7 @@
 #include "master/transaction.hpp"
 
+#include <algorithm>
+
 #include "rtu/codec.hpp"
 
 namespace drivebus::master {
@@ -12,6 +14,7 @@ std::string_view to_string(Outcome outcome) noexcept {
     case Outcome::BadFrame: return "bad frame";
     case Outcome::EchoMismatch: return "echo mismatch";
     case Outcome::BusDown: return "bus down";
+    case Outcome::Late: return "late reply";
     }
     return "unknown";
 }
@@ -44,6 +47,15 @@ void Transaction::sent(rtu::Instant tx_end) {
 }
 
 Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
+    const bool from_slave = !frame.adu.empty() && frame.adu[0] == request_.address;
+    if (state_ == State::Guard) {
+        if (!from_slave) {
+            return Verdict::Foreign;
+        }
+        ++late_;
+        late_latency_ = std::max(late_latency_, frame.first - tx_end_);
+        return Verdict::Late;
+    }
     // A reply can beat the computed end of our transmission where nothing paces the line
     // (a pty pair, a USB adapter's buffering): it still answers this request.
     if (state_ != State::AwaitingReply && state_ != State::Sending) {
@@ -59,14 +71,15 @@ Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
     }
     result_ = Result{};
     result_->response = reply->pdu;
+    result_->after_timeout = timeouts_ > 0;
     result_->latency = frame.last - (state_ == State::AwaitingReply ? tx_end_ : written_at_);
     const bool exception = std::holds_alternative<rtu::ExceptionResponse>(reply->pdu);
     finish(exception ? Outcome::Exception : Outcome::Ok, frame.last);
     return Verdict::Reply;
 }
 
-void Transaction::on_bad_frame(rtu::Instant now) {
-    if (state_ == State::AwaitingReply) {
+void Transaction::on_bad_frame(rtu::Instant now, rtu::Instant began) {
+    if (state_ == State::AwaitingReply && began >= written_at_ + options_.earliest_reply) {
         attempt_failed(Outcome::BadFrame, now);
     }
 }
@@ -90,8 +103,20 @@ void Transaction::on_time(rtu::Instant now) {
     if (state_ == State::BroadcastWait) {
         finish(Outcome::Ok, now);
     } else if (state_ == State::AwaitingReply) {
-        attempt_failed(Outcome::Timeout, now);
+        timed_out(now);
+    } else if (state_ == State::Guard) {
+        attempt_failed(late_ > 0 ? Outcome::Late : Outcome::Timeout, now);
     }
+}
+
+void Transaction::timed_out(rtu::Instant now) {
+    ++timeouts_;
+    if (options_.late_reply_guard.count() > 0) {
+        state_ = State::Guard;
+        deadline_ = now + options_.late_reply_guard;
+        return;
+    }
+    attempt_failed(Outcome::Timeout, now);
 }
 
 std::optional<rtu::Instant> Transaction::deadline() const noexcept {
@@ -114,6 +139,8 @@ void Transaction::finish(Outcome outcome, rtu::Instant now) {
     result_->outcome = outcome;
     result_->attempts = attempts_;
     result_->finished = now;
+    result_->late_replies = late_;
+    result_->late_latency = late_latency_;
     state_ = State::Done;
     deadline_.reset();
 }

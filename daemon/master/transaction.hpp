@@ -2,7 +2,13 @@
 //
 // A pure state machine, driven by the bus loop's events. The timeout of each attempt runs
 // from the moment the request has left the wire (transmitter empty, or its computed wire
-// time), not from write().
+// time), not from write(), until the reply begins: the engine does not call on_time() while a
+// frame is coming in, so a long reply that began in time gets its own wire time.
+//
+// Transaction identity: every attempt of one transaction sends the same request, so a reply
+// to any of its attempts is a right answer to it. A reply to an earlier transaction is not:
+// after an attempt timed out, the transaction waits a late-reply guard before it is sent
+// again, and what arrives from the slave in it is discarded and counted as late.
 #pragma once
 
 #include <cstdint>
@@ -20,6 +26,14 @@ struct TransactionOptions {
     rtu::Duration response_timeout = std::chrono::milliseconds(100);
     unsigned retries = 2;
     rtu::Duration broadcast_turnaround = std::chrono::milliseconds(10);
+    // After a time-out, how long a late reply may still come: nothing is sent meanwhile.
+    rtu::Duration late_reply_guard{};
+    // A compliant slave keeps t3.5 of silence before it answers: a spoiled frame that began
+    // sooner than this after the request was written was on its way before it (the rest of a
+    // reply the kernel held back) and does not fail the attempt. A good reply is taken whenever
+    // it comes: slaves that answer sooner exist (libmodbus's), and a stale reply is kept out by
+    // the late-reply guard, not by its timing.
+    rtu::Duration earliest_reply{};
 };
 
 class Transaction {
@@ -28,6 +42,7 @@ public:
         ReadyToSend,    // waiting for the line to be free
         Sending,        // written, not yet off the wire
         AwaitingReply,  // off the wire, response timeout running
+        Guard,          // an attempt timed out: a late reply may still come
         BroadcastWait,  // broadcast sent, turnaround running
         Done,
     };
@@ -36,6 +51,7 @@ public:
         Reply,      // the reply: the transaction is done
         Foreign,    // from another slave (a late reply, or noise that framed): ignored
         Malformed,  // from the addressed slave but not a valid reply: the attempt failed
+        Late,       // from the addressed slave after its attempt timed out: discarded
         Ignored,    // not awaiting a reply
     };
 
@@ -54,9 +70,10 @@ public:
     void sent(rtu::Instant tx_end);
     // A complete frame while awaiting the reply.
     Verdict on_frame(const rtu::Frame& frame);
-    // A frame the framer discarded (CRC, gap, parity) while awaiting the reply: the reply was
-    // spoiled, so the attempt failed (retried once the line is silent).
-    void on_bad_frame(rtu::Instant now);
+    // A frame the framer discarded (CRC, gap, parity) while awaiting the reply, whose first
+    // character ended at `began`: the reply was spoiled, so the attempt failed (retried once the
+    // line is free). One that began too soon to be the reply is not this attempt's.
+    void on_bad_frame(rtu::Instant now, rtu::Instant began);
     // The echo of the request did not match what was sent.
     void on_echo_mismatch(rtu::Instant now);
     // The line went down: no more attempts.
@@ -68,6 +85,7 @@ public:
 
 private:
     void attempt_failed(Outcome why, rtu::Instant now);
+    void timed_out(rtu::Instant now);
     void finish(Outcome outcome, rtu::Instant now);
 
     TransactionOptions options_;
@@ -79,6 +97,9 @@ private:
     rtu::Instant tx_end_{};
     std::optional<rtu::Instant> deadline_;
     std::optional<Result> result_;
+    unsigned timeouts_ = 0;
+    unsigned late_ = 0;
+    rtu::Duration late_latency_{};
 };
 
 }  // namespace drivebus::master

@@ -276,4 +276,10 @@ void Port::flush() noexcept {
     ::tcflush(fd_.get(), TCIOFLUSH);
 }
 
+std::size_t Port::input_waiting() const noexcept {
+    int n = 0;
+    const auto asked = sys::posix_call("ioctl(TIOCINQ)", [&] { return ::ioctl(fd_.get(), TIOCINQ, &n); });
+    return asked && n > 0 ? static_cast<std::size_t>(n) : 0U;
+}
+
 }  // namespace drivebus::serial

@@ -71,6 +71,8 @@ public:
     [[nodiscard]] std::expected<std::size_t, sys::SysError> read(std::span<std::uint8_t> buffer) noexcept;
     // Drops anything unread or unsent (tcflush), e.g. after reopening.
     void flush() noexcept;
+    // Bytes received and waiting to be read (TIOCINQ); 0 when the driver cannot tell.
+    [[nodiscard]] std::size_t input_waiting() const noexcept;
 
 private:
     Port() = default;

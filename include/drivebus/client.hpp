@@ -50,6 +50,7 @@ enum class ErrorKind : std::uint8_t {
     NoReply,       // drivebusd did not answer the request in time
     InvalidArgument,  // bad input on this side: unknown register name, value too large
     Unsupported,   // the drive's profile does not define what was asked (a helper)
+    LateReply,     // the drive answered, but only after the response time-out (Error::message says how late)
 };
 
 [[nodiscard]] DRIVEBUS_API std::string_view to_string(ErrorKind kind) noexcept;

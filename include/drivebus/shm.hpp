@@ -18,7 +18,7 @@
 
 namespace drivebus::shm {
 
-inline constexpr std::uint32_t kPayloadVersion = 1;
+inline constexpr std::uint32_t kPayloadVersion = 2;
 inline constexpr std::string_view kService = "drivebus";
 inline constexpr std::string_view kStatusEvent = "status";
 inline constexpr std::string_view kRequestEvent = "requests";
@@ -75,6 +75,7 @@ struct DriveCounters {
     std::uint64_t retries = 0;
     std::uint64_t exceptions = 0;
     std::uint64_t absent_transitions = 0;
+    std::uint64_t late = 0;  // replies that came after their attempt timed out: discarded
 };
 
 struct LeaseStatus {
@@ -140,6 +141,8 @@ struct BusCounters {
     std::uint64_t exceptions = 0;
     std::uint64_t requests_served = 0;  // client requests answered, rejections included
     std::uint64_t lease_expiries = 0;
+    std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
+    std::uint64_t held_replies = 0;  // replies the kernel handed over late, still complete in time
 };
 
 struct DriveEntry {
@@ -209,6 +212,7 @@ enum class Status : std::uint8_t {
     QueueFull = 5,     // the bus's request queue is full: try again later
     BusDown = 6,       // the line is not open
     NotPermitted = 7,  // another client holds the drive's control lease
+    Late = 8,          // every attempt timed out and the drive answered after it: see `late_us`
 };
 
 enum class RejectReason : std::uint8_t {
@@ -234,7 +238,7 @@ struct Response {
     std::uint16_t register_address = 0;  // the register a rejection is about
     std::uint16_t count = 0;             // words in `values`
     std::uint32_t lease_ms = 0;          // this request took or renewed a lease of this length
-    std::uint32_t reserved = 0;
+    std::uint32_t late_us = 0;           // Late: how long after the request the latest reply came
     std::int64_t reply_ns = 0;           // CLOCK_MONOTONIC end of the reply
     std::uint64_t lease_holder = 0;      // NotPermitted: who holds the lease
     std::array<std::uint16_t, kMaxReadWords> values{};
@@ -265,6 +269,7 @@ template <typename T>
         case Status::QueueFull: return "queue full";
         case Status::BusDown: return "bus down";
         case Status::NotPermitted: return "not permitted";
+        case Status::Late: return "late reply";
     }
     return "unknown";
 }

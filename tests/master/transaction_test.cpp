@@ -21,6 +21,7 @@ Transaction make(unsigned retries = 2, rtu::RequestAdu request = kRead) {
 rtu::Frame frame_of(const rtu::ResponseAdu& reply, rtu::Instant last) {
     rtu::Frame f;
     f.adu = rtu::encode_response(reply).value();
+    f.first = last;
     f.last = last;
     return f;
 }
@@ -99,10 +100,84 @@ TEST(Transaction, BadFramesAndEchoMismatchesRetry) {
     EXPECT_EQ(t.state(), Transaction::State::ReadyToSend);
     t.written(t0 + 10ms);
     t.sent(t0 + 14ms);
-    t.on_bad_frame(t0 + 20ms);
+    t.on_bad_frame(t0 + 20ms, t0 + 18ms);
     ASSERT_EQ(t.state(), Transaction::State::Done);
     EXPECT_EQ(t.result()->outcome, Outcome::BadFrame);
     EXPECT_EQ(t.result()->attempts, 2U);
+}
+
+TEST(Transaction, ASpoiledFrameThatBeganBeforeTheSlaveCouldAnswerIsNotTheReply) {
+    const auto adu = rtu::encode_request(kRead).value();
+    Transaction t({50ms, 0, 10ms, {}, 2ms}, kRead, adu);
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    // Began 1 ms after the write: a compliant slave keeps t3.5 (here 2 ms) before it answers.
+    t.on_bad_frame(t0 + 6ms, t0 + 1ms);
+    EXPECT_EQ(t.state(), Transaction::State::AwaitingReply);
+    // A good reply counts whenever it comes (some slaves answer sooner than t3.5).
+    auto early = frame_of({1, rtu::ReadHoldingRegistersResponse{{7}}}, t0 + 5ms);
+    early.first = t0 + 1ms;
+    EXPECT_EQ(t.on_frame(early), Transaction::Verdict::Reply);
+}
+
+// After a time-out the transaction waits a guard before it is sent again: a reply in it is
+// late, discarded, and reported; a reply to any of its attempts after that is its answer.
+TEST(Transaction, ALateReplyIsDiscardedInTheGuardAndReported) {
+    const auto adu = rtu::encode_request(kRead).value();
+    Transaction t({50ms, 1, 10ms, 50ms, {}}, kRead, adu);
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    t.on_time(t0 + 54ms);
+    ASSERT_EQ(t.state(), Transaction::State::Guard);
+    t.written(t0 + 60ms);
+    EXPECT_EQ(t.state(), Transaction::State::Guard) << "nothing is sent in the guard";
+    const auto reply = frame_of({1, rtu::ReadHoldingRegistersResponse{{5}}}, t0 + 75ms);
+    EXPECT_EQ(t.on_frame(reply), Transaction::Verdict::Late);
+    EXPECT_EQ(t.on_frame(frame_of({2, rtu::ReadHoldingRegistersResponse{{5}}}, t0 + 80ms)),
+              Transaction::Verdict::Foreign);
+    t.on_time(t0 + 103ms);
+    EXPECT_EQ(t.state(), Transaction::State::Guard);
+    t.on_time(t0 + 104ms);
+    ASSERT_EQ(t.state(), Transaction::State::ReadyToSend);
+    t.written(t0 + 110ms);
+    t.sent(t0 + 114ms);
+    t.on_time(t0 + 164ms);
+    EXPECT_EQ(t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{5}}}, t0 + 185ms)),
+              Transaction::Verdict::Late);
+    t.on_time(t0 + 214ms);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Late);
+    EXPECT_EQ(t.result()->late_replies, 2U);
+    EXPECT_EQ(t.result()->late_latency, 71ms);  // 185 ms, less the second attempt's 114 ms
+    EXPECT_FALSE(t.result()->response.has_value());
+}
+
+TEST(Transaction, AReplyOnARetryIsTheAnswerAndSaysSo) {
+    const auto adu = rtu::encode_request(kRead).value();
+    Transaction t({50ms, 1, 10ms, 50ms, {}}, kRead, adu);
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    t.on_time(t0 + 54ms);
+    t.on_time(t0 + 104ms);
+    t.written(t0 + 110ms);
+    t.sent(t0 + 114ms);
+    EXPECT_EQ(t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{5}}}, t0 + 130ms)),
+              Transaction::Verdict::Reply);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Ok);
+    EXPECT_TRUE(t.result()->after_timeout);
+}
+
+TEST(Transaction, SilenceEverywhereIsATimeoutNotLate) {
+    const auto adu = rtu::encode_request(kRead).value();
+    Transaction t({50ms, 0, 10ms, 50ms, {}}, kRead, adu);
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    t.on_time(t0 + 54ms);
+    t.on_time(t0 + 104ms);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Timeout);
+    EXPECT_EQ(t.result()->late_replies, 0U);
 }
 
 TEST(Transaction, BroadcastWaitsTheTurnaroundOnly) {

@@ -1,0 +1,237 @@
+// The master's wire rules when the kernel hands bytes over late and when drives answer late:
+// a reply held back is still the reply if it completes within its wire bound, a retry never
+// starts before a begun reply can have ended, bytes waiting to be read delay the write, and a
+// reply that comes after its time-out is never taken for the answer to another request.
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "fixtures.hpp"
+#include "sim_fixture.hpp"
+#include "virtual_line.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+const rtu::Instant kStart{std::chrono::seconds(100)};
+
+// The fan: an Altivar 58 at address 2 whose 10-register poll is a 25-byte reply.
+constexpr std::size_t kFanReply = 25;
+
+class WireRules : public ::testing::Test {
+protected:
+    std::shared_ptr<const Profile> atv21 = load("atv21");
+    std::shared_ptr<const Profile> atv58 = load("atv58");
+    config::BusConfig config = bus();
+    rtu::CharacterTiming timing = rtu::character_timing(config.format).value();
+    std::vector<master::DriveSnapshot> snapshots;
+    std::vector<std::pair<std::uint64_t, master::Result>> results;
+    std::unique_ptr<master::BusEngine> engine;
+    sim::Bus drives{{timing, 1ms, true, 3}};
+    std::unique_ptr<VirtualLine> line;
+    rtu::Instant held_reply_first_{};  // the end of the held reply's first character on the wire
+
+    void add_fan(rtu::Duration period = 50ms) {
+        auto d = drive("fan", 2, atv58);
+        d.polls.push_back(
+            poll(*atv58, {"W450", "W451", "W452", "W453", "W454", "W455", "W456", "W457", "W458", "W459"}, period));
+        config.drives.push_back(d);
+        drives.add(sim::make_drive(2, atv58));
+        for (int i = 0; i < 10; ++i) {
+            ASSERT_TRUE(drives.drive(2)->poke("W45" + std::to_string(i), static_cast<std::uint16_t>(4500 + i)));
+        }
+    }
+    void start() {
+        master::EngineCallbacks callbacks;
+        callbacks.snapshot = [this](const master::DriveSnapshot& s) { snapshots.push_back(s); };
+        callbacks.client_result = [this](std::uint64_t id, const master::Result& r) { results.emplace_back(id, r); };
+        engine = std::make_unique<master::BusEngine>(config, timing, callbacks, kStart);
+        engine->line_up(kStart);
+        line = std::make_unique<VirtualLine>(*engine, drives, timing, kStart);
+    }
+    // Every value any snapshot carries as valid is the drive's own.
+    void expect_fan_values_right() const {
+        std::size_t checked = 0;
+        for (const auto& s : snapshots) {
+            for (const auto& [address, v] : s.registers) {
+                if (v.valid) {
+                    EXPECT_EQ(v.value, 4500 + (address - 450)) << "W" << address;
+                    ++checked;
+                }
+            }
+        }
+        EXPECT_GT(checked, 0U);
+    }
+    void expect_silences_kept() const {
+        for (const auto& t : line->transmissions()) {
+            ASSERT_GE(t.start - t.prior_activity, timing.t3_5) << "a request started too early";
+        }
+    }
+    // Holds back reply `which` from byte `from` on: handed over `after` past the reply's last
+    // character on the wire (byte i of a paced reply is on the wire i characters after byte 0).
+    void hold(std::size_t which, std::size_t from, rtu::Duration after) {
+        line->set_delivery([=, this](std::size_t reply, std::size_t index, rtu::Instant at) {
+            if (reply == which && index == 0) {
+                held_reply_first_ = at;
+            }
+            if (reply != which || index < from) {
+                return at;
+            }
+            const auto to_last = static_cast<std::int64_t>(kFanReply - 1 - index);
+            return at + timing.character * to_last + after;
+        });
+    }
+};
+
+TEST_F(WireRules, AReplyHeldBackLongerThanT35CompletesAndIsAccepted) {
+    add_fan();
+    start();
+    // Bytes 5-24 of the first reply come in one read, t3.5 after the last of them was on the
+    // wire: byte 5 is held back 19 characters + t3.5, far longer than t3.5.
+    hold(0, 5, timing.t3_5);
+    line->run_for(200ms);
+    const auto& c = engine->status().counters;
+    EXPECT_EQ(c.held_replies, 1U);
+    EXPECT_EQ(c.retries, 0U);
+    EXPECT_EQ(c.crc_errors + c.gap_errors, 0U);
+    EXPECT_EQ(c.foreign, 0U);
+    ASSERT_FALSE(snapshots.empty());
+    expect_fan_values_right();
+    expect_silences_kept();
+}
+
+TEST_F(WireRules, ARetryAfterABrokenReplyNeverStartsBeforeItsWireBound) {
+    add_fan();
+    start();
+    // The rest of the first reply comes three t3.5 after its end: past the bound, so the
+    // master takes the reply as broken and retries, but not before the reply can have ended.
+    hold(0, 5, timing.t3_5 * 3);
+    line->run_for(300ms);
+    ASSERT_GE(line->transmissions().size(), 2U);
+    const auto& first = line->transmissions()[0];
+    const auto& retry = line->transmissions()[1];
+    EXPECT_EQ(retry.adu.bytes().size(), first.adu.bytes().size());
+    // The reply's last character cannot end before 24 characters after its first; the line
+    // is free t3.5 after that.
+    ASSERT_GT(held_reply_first_, first.start);
+    EXPECT_GE(retry.start, held_reply_first_ + timing.character * 24 + timing.t3_5);
+    const auto& c = engine->status().counters;
+    EXPECT_EQ(c.retries, 1U);
+    EXPECT_GE(c.crc_errors + c.gap_errors + c.noise, 1U);
+    EXPECT_EQ(c.held_replies, 0U);
+    expect_fan_values_right();
+    expect_silences_kept();
+}
+
+TEST_F(WireRules, BytesWaitingInTheInputQueueDelayTheWrite) {
+    add_fan(1ms);
+    start();
+    const rtu::Instant t = kStart + 10ms;
+    engine->on_time(t);
+    ASSERT_TRUE(engine->line_free(t));
+    EXPECT_FALSE(engine->transmission(t, 3).has_value()) << "3 bytes received, not yet read";
+    EXPECT_TRUE(engine->transmission(t, 0).has_value());
+}
+
+// The response time-out runs until the reply begins: a 125-register reply (255 bytes, 133 ms
+// at 19200 bit/s) outlasts the default 100 ms and still succeeds.
+TEST_F(WireRules, ALongReplyGetsItsOwnWireTime) {
+    config.response_timeout = config::BusConfig{}.response_timeout;
+    // A generic slave with 125 registers, each holding its own address + 1000.
+    auto meter = std::make_shared<Profile>(*load("generic"));
+    for (std::uint16_t a = 0; a < 125; ++a) {
+        RegisterInfo r;
+        r.name = "R" + std::to_string(a);
+        r.address = a;
+        r.default_value = 1000 + a;
+        meter->registers.push_back(r);
+    }
+    config.drives.push_back(drive("meter", 5, meter));
+    drives.add(sim::make_drive(5, meter));
+    start();
+    ASSERT_TRUE(engine->submit({1, 77, {5, rtu::ReadHoldingRegisters{0, 125}}, false}).has_value());
+    ASSERT_TRUE(line->run_until_true([&] { return !results.empty(); }, 10s));
+    const auto& [id, result] = results.front();
+    EXPECT_EQ(id, 77U);
+    ASSERT_EQ(result.outcome, master::Outcome::Ok) << master::to_string(result.outcome);
+    EXPECT_EQ(result.attempts, 1U);
+    const auto& values = std::get<rtu::ReadHoldingRegistersResponse>(*result.response).values;
+    ASSERT_EQ(values.size(), 125U);
+    EXPECT_EQ(values[0], 1000);
+    EXPECT_EQ(values[124], 1124);
+    EXPECT_GT(rtu::wire_time(timing, 255), config.response_timeout);
+    EXPECT_EQ(engine->status().counters.timeouts, 0U);
+}
+
+// Replies late by a share of the response time-out, on an Altivar 21 read one register at a
+// time (every read has the same shape: address, function, length and CRC cannot tell two
+// replies apart). Every value a client gets is the register's own, and a drive that answers
+// after the time-out is reported as late, never as silent.
+class LateReplies : public WireRules, public ::testing::WithParamInterface<double> {};
+
+TEST_P(LateReplies, NeverGiveAWrongValue) {
+    const double factor = GetParam();
+    config.response_timeout = 100ms;
+    auto d = drive("pump", 1, atv21);
+    config.drives.push_back(d);
+    drives.add(sim::make_drive(1, atv21));
+    const std::map<std::uint16_t, std::uint16_t> values{{0xFE35, 101}, {0xFE36, 202}, {0xFA50, 33}, {0xFA51, 404}};
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0));
+    ASSERT_TRUE(drives.drive(1)->poke("FE35", 101));
+    ASSERT_TRUE(drives.drive(1)->poke("FE36", 202));
+    ASSERT_TRUE(drives.drive(1)->poke("FA50", 33));
+    ASSERT_TRUE(drives.drive(1)->poke("FA51", 404));
+    const auto late = std::chrono::duration_cast<rtu::Duration>(config.response_timeout * factor);
+    ASSERT_TRUE(drives.faults().apply(1, "late=" + std::to_string(late.count() / 1000) + "us").has_value());
+    start();
+
+    constexpr std::size_t kReads = 10'000;
+    constexpr std::size_t kBatch = 32;
+    std::vector<std::uint16_t> asked;
+    std::size_t ok = 0;
+    std::size_t wrong = 0;
+    std::map<master::Outcome, std::size_t> outcomes;
+    while (asked.size() < kReads) {
+        const std::size_t before = results.size();
+        for (std::size_t i = 0; i < kBatch && asked.size() < kReads; ++i) {
+            const std::uint16_t reg = std::next(values.begin(), static_cast<std::ptrdiff_t>(asked.size() % 4))->first;
+            master::ClientRequest r{1, asked.size(), {1, rtu::ReadHoldingRegisters{reg, 1}}, false};
+            ASSERT_TRUE(engine->submit(r).has_value());
+            asked.push_back(reg);
+        }
+        ASSERT_TRUE(line->run_until_true([&] { return results.size() == asked.size(); }, 3600s))
+            << "answers " << results.size() << " of " << asked.size();
+        for (std::size_t i = before; i < results.size(); ++i) {
+            const auto& [id, result] = results[i];
+            ++outcomes[result.outcome];
+            if (result.outcome != master::Outcome::Ok) {
+                continue;
+            }
+            const auto& reply = std::get<rtu::ReadHoldingRegistersResponse>(*result.response);
+            ++ok;
+            if (reply.values.words()[0] != values.at(asked.at(id))) {
+                ++wrong;
+            }
+        }
+    }
+    EXPECT_EQ(wrong, 0U) << "of " << ok << " values";
+    if (factor < 1.0) {
+        EXPECT_EQ(ok, kReads);
+        EXPECT_EQ(engine->status().counters.late_replies, 0U);
+    } else {
+        // Reported as late: never "did not answer".
+        EXPECT_EQ(outcomes[master::Outcome::Timeout], 0U);
+        EXPECT_GT(engine->status().counters.late_replies, 0U);
+        EXPECT_GT(engine->scheduler().snapshot(0).counters.late, 0U);
+        EXPECT_EQ(ok + outcomes[master::Outcome::Late], kReads);
+    }
+    expect_silences_kept();
+}
+
+INSTANTIATE_TEST_SUITE_P(OfTheTimeout, LateReplies, ::testing::Values(0.5, 0.9, 1.1, 1.5, 2.5),
+                         [](const auto& p) { return "x" + std::to_string(static_cast<int>(p.param * 10)); });
+
+}  // namespace
+}  // namespace drivebus::test
