@@ -15,6 +15,9 @@
 //   5  the silence left before each request beyond t3.5, at 19200 and 115200
 //   6  cyclic polling period jitter while stress-ng loads every core, with SCHED_FIFO and without
 //   7  drivebusd's CPU share and peak anonymous RSS polling 31 drives at 19200 with 16 clients
+//   8  the wire rules under load: 4 drives polled back to back at 19200 and 115200, quiet and
+//      under stress-ng, counted on the simulator's side (requests less than t3.5 after its last
+//      byte) and the master's (foreign frames, CRC and gap errors, held and late replies)
 //
 // Items 1-3 and 7 run drivebusd (with its RouDi: one per machine, so the suite waits while
 // another one answers on /tmp/roudi). Items 4-6 run the bus thread drivebusd runs (BusLoop)
@@ -701,6 +704,101 @@ void jitter(const Options& o, std::vector<Row>& rows) {
     }
 }
 
+// ---- item 8: the wire rules under load ----
+
+struct WireRun {
+    double rate = 0;  // replies per second
+    std::uint64_t replies = 0;
+    std::uint64_t requests = 0;    // as the simulator counted them (silences measured)
+    std::uint64_t violations = 0;  // of which less than t3.5 after the simulator's last byte
+    master::BusCounters counters;  // over the measured span
+};
+
+master::BusCounters minus(const master::BusCounters& a, const master::BusCounters& b) {
+    master::BusCounters d = a;
+    d.replies -= b.replies;
+    d.foreign -= b.foreign;
+    d.crc_errors -= b.crc_errors;
+    d.gap_errors -= b.gap_errors;
+    d.held_replies -= b.held_replies;
+    d.late_replies -= b.late_replies;
+    d.retries -= b.retries;
+    d.timeouts -= b.timeouts;
+    return d;
+}
+
+WireRun wire_run(const Line& line, double seconds, bool loaded) {
+    std::optional<test::Child> stress;
+    if (loaded) {
+        stress.emplace(std::vector<std::string>{"/usr/bin/stress-ng", "--cpu", std::to_string(std::thread::hardware_concurrency()),
+                                                "--io", "1", "--vm", "1", "--timeout",
+                                                std::to_string(static_cast<int>(seconds) + 30) + "s", "--quiet"});
+        std::this_thread::sleep_for(500ms);
+    }
+    WireRun run;
+    test::SimProcess sim(sim_args(line, 4, "1ms", true));
+    auto config = bus_config(line, sim.link(), 4, {"W450", "W451", "W452", "W453"}, 1ms);
+    bus::BusLoop loop(config, {}, loop_options(50));
+    if (auto started = loop.start(); !started) {
+        throw Failure("the bus loop did not start: " + started.error());
+    }
+    std::this_thread::sleep_for(500ms);
+    const auto c0 = loop.status().counters;
+    const auto t0 = now_ns();
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    const auto c1 = loop.status().counters;
+    const auto t1 = now_ns();
+    loop.stop();
+    const std::string silences = sim.command("silences");
+    sim.stop();
+    if (stress) {
+        stress->stop();
+    }
+    run.counters = minus(c1, c0);
+    run.replies = run.counters.replies;
+    run.rate = static_cast<double>(run.replies) * 1e9 / static_cast<double>(t1 - t0);
+    run.requests = std::stoull(field(silences, "count"));
+    run.violations = std::stoull(field(silences, "short"));
+    return run;
+}
+
+void wire_rules(const Options& o, std::vector<Row>& rows) {
+    const double seconds = o.smoke ? 2.0 : 20.0;
+    for (const std::uint32_t baud : {19200U, 115200U}) {
+        const Line line{baud, rtu::Parity::None};
+        double quiet_rate = 0;
+        for (const bool loaded : {false, true}) {
+            const std::string load = loaded
+                                         ? fmt::format("stress-ng --cpu {} --io 1 --vm 1", std::thread::hardware_concurrency())
+                                         : "quiet";
+            note(fmt::format("wire rules at {}, {}", line.name(), load));
+            const WireRun run = wire_run(line, seconds, loaded);
+            const auto& c = run.counters;
+            const std::uint64_t errors = c.crc_errors + c.gap_errors;
+            const double error_share = run.replies > 0 ? static_cast<double>(errors) / static_cast<double>(run.replies) : 1.0;
+            Row r{"8", fmt::format("wire rules, {}, 4 drives back to back, {}", line.name(), load)};
+            r.samples = run.replies;
+            r.notes = fmt::format(
+                "{:.1f} transactions/s; requests less than t3.5 after the simulator's last byte: **{}** of {}; "
+                "foreign frames **{}**; CRC + gap errors **{}** ({:.2f}% of replies); held replies {}; late {}; "
+                "retries {}; timeouts {}",
+                run.rate, run.violations, run.requests, c.foreign, errors, 100.0 * error_share, c.held_replies,
+                c.late_replies, c.retries, c.timeouts);
+            r.met = run.violations == 0 && c.foreign == 0 && error_share <= 0.001;
+            r.target = "0 violations, 0 foreign, errors ≤ 0.1%";
+            if (loaded) {
+                const double ratio = quiet_rate > 0 ? run.rate / quiet_rate : 0.0;
+                r.notes += fmt::format("; loaded / quiet: **{:.3f}**", ratio);
+                r.target += ", ≥ 0.9 × quiet";
+                r.met = r.met && ratio >= 0.9;
+            } else {
+                quiet_rate = run.rate;
+            }
+            rows.push_back(r);
+        }
+    }
+}
+
 // ---- item 7: cost ----
 
 struct ProcSample {
@@ -863,7 +961,7 @@ int main(int argc, char** argv) {
     ::signal(SIGPIPE, SIG_IGN);
     std::vector<Row> rows;
     const std::vector<std::pair<std::vector<int>, std::function<void(const Options&, std::vector<Row>&)>>> items{
-        {{0}, floors}, {{1, 2, 3}, latency}, {{4}, efficiency}, {{5}, gap}, {{6}, jitter}, {{7}, cost}};
+        {{0}, floors}, {{1, 2, 3}, latency}, {{4}, efficiency}, {{5}, gap}, {{6}, jitter}, {{7}, cost}, {{8}, wire_rules}};
     int failures = 0;
     for (const auto& [numbers_of, run] : items) {
         if (std::ranges::none_of(numbers_of, [&](int i) { return o.runs(i); })) {
