@@ -1,0 +1,128 @@
+// drivebusd's bus thread on a real pty against drivebus-sim whose Altivar 21 answers late: a
+// share of the response time-out too late, every reply. The ATV21 reads one register per FC03,
+// so every read has the same shape and only the master's timing keeps replies apart. Whatever
+// the lateness, a client gets the register's own value or an error, and a drive that answers
+// after the time-out is reported as late, not as silent.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "bus/bus_loop.hpp"
+#include "fixtures.hpp"
+#include "sim_process.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr auto kTimeout = 40ms;
+constexpr std::size_t kReads = 200;
+const std::map<std::uint16_t, std::uint16_t> kValues{{0xFE35, 101}, {0xFE36, 202}, {0xFA50, 33}, {0xFA51, 404}};
+const std::map<std::uint16_t, std::string> kNames{{0xFE35, "FE35"}, {0xFE36, "FE36"}, {0xFA50, "FA50"}, {0xFA51, "FA51"}};
+
+struct Tally {
+    std::size_t ok = 0;
+    std::size_t wrong = 0;
+    std::map<master::Outcome, std::size_t> outcomes;
+    std::uint64_t late = 0;
+    std::string failure;  // empty: ran through
+};
+
+// 200 reads, four at a time in flight, cycling over four registers with distinct values.
+Tally run(double factor) {
+    Tally tally;
+    // 115200 bit/s and a 100 us turnaround: the fixed part of a reply's delay (t3.5, turnaround,
+    // a character) is about 2 ms, so 0.9 x the time-out is still in time.
+    SimProcess sim({"--baud", "115200", "--parity", "none", "--turnaround", "100us", "--drive", "1:atv21"});
+    for (const auto& [reg, value] : kValues) {
+        if (sim.command("set 1 " + kNames.at(reg) + " " + std::to_string(value)).rfind("ok", 0) != 0) {
+            tally.failure = "set " + kNames.at(reg);
+            return tally;
+        }
+    }
+    (void)sim.command("set 1 F803 0");
+    const auto late = std::chrono::duration_cast<std::chrono::microseconds>(kTimeout * factor);
+    if (sim.command("fault 1 late=" + std::to_string(late.count()) + "us").rfind("ok", 0) != 0) {
+        tally.failure = "fault";
+        return tally;
+    }
+    config::BusConfig config = bus({115200, 8, rtu::Parity::None, 1});
+    config.device = sim.link();
+    config.response_timeout = kTimeout;
+    config.drives.push_back(drive("pump", 1, load("atv21")));
+    std::mutex mutex;
+    std::map<std::uint64_t, master::Result> results;
+    master::EngineCallbacks callbacks;
+    callbacks.client_result = [&](std::uint64_t id, const master::Result& r) {
+        const std::lock_guard lock(mutex);
+        results[id] = r;
+    };
+    bus::BusLoop loop(config, callbacks);
+    if (!loop.start()) {
+        tally.failure = "the bus loop did not start";
+        return tally;
+    }
+    std::vector<std::uint16_t> asked;
+    while (asked.size() < kReads) {
+        for (int i = 0; i < 4; ++i) {
+            const std::uint16_t reg = std::next(kValues.begin(), static_cast<std::ptrdiff_t>(asked.size() % 4))->first;
+            if (!loop.submit({1, asked.size(), {1, rtu::ReadHoldingRegisters{reg, 1}}})) {
+                tally.failure = "submit refused";
+                return tally;
+            }
+            asked.push_back(reg);
+        }
+        const bool answered = wait_until(
+            [&] {
+                const std::lock_guard lock(mutex);
+                return results.size() == asked.size();
+            },
+            30s);
+        if (!answered) {
+            tally.failure = "answers " + std::to_string(results.size()) + " of " + std::to_string(asked.size());
+            return tally;
+        }
+    }
+    tally.late = loop.status().counters.late_replies;
+    loop.stop();
+    for (const auto& [id, result] : results) {
+        ++tally.outcomes[result.outcome];
+        if (result.outcome == master::Outcome::Ok) {
+            ++tally.ok;
+            const auto& reply = std::get<rtu::ReadHoldingRegistersResponse>(*result.response);
+            tally.wrong += reply.values.words()[0] != kValues.at(asked.at(id)) ? 1U : 0U;
+        }
+    }
+    return tally;
+}
+
+TEST(LateReplies, OnAPtyNeverGiveAWrongValue) {
+    const std::vector<double> factors{0.5, 0.9, 1.1, 1.5, 2.5};
+    std::vector<Tally> tallies(factors.size());
+    {
+        // The five runs are mostly waiting: side by side, each on its own pty.
+        std::vector<std::jthread> runs;
+        for (std::size_t i = 0; i < factors.size(); ++i) {
+            runs.emplace_back([&, i] { tallies[i] = run(factors[i]); });
+        }
+    }
+    for (std::size_t i = 0; i < factors.size(); ++i) {
+        const auto& t = tallies[i];
+        SCOPED_TRACE("late " + std::to_string(factors[i]) + " x the response time-out");
+        ASSERT_EQ(t.failure, "");
+        EXPECT_EQ(t.wrong, 0U) << "of " << t.ok << " values";
+        if (factors[i] < 1.0) {
+            EXPECT_GT(t.ok, 0U);
+        } else {
+            // Reported as late: never "did not answer".
+            EXPECT_EQ(t.outcomes.count(master::Outcome::Timeout), 0U);
+            EXPECT_GT(t.late, 0U);
+        }
+    }
+}
+
+}  // namespace
+}  // namespace drivebus::test
