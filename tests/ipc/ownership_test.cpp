@@ -110,5 +110,15 @@ TEST(Ownership, TheLeaseCoversTheCommandAndReferenceReachedThroughTheWriteBlock)
     EXPECT_NE(stack.daemon_output().find("took the control lease over"), std::string::npos) << stack.daemon_output();
 }
 
+// Finding 8: the Altivar 58's profile gives no stop word, so its lease can only hold; drivebusd
+// says so at start-up for that drive, and not for the Altivar 21 beside it.
+TEST(Ownership, DrivebusdWarnsAtStartUpOfADriveWhoseLeaseCanOnlyHold) {
+    Stack stack;
+    const auto out = stack.daemon_output();
+    EXPECT_NE(out.find("drive 'fan': profile 'atv58' gives no stop or freewheel command word"), std::string::npos)
+        << out;
+    EXPECT_EQ(out.find("drive 'pump': profile"), std::string::npos) << out;
+}
+
 }  // namespace
 }  // namespace drivebus::test
