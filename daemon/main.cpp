@@ -95,6 +95,9 @@ int run_main(int argc, char** argv) {
         log::error(config.error().message);
         return kExitConfig;
     }
+    for (const auto& line : config::start_up_warnings(*config)) {
+        log::warning(line);
+    }
     if (check_only) {
         std::cout << config_path << ": valid, " << describe(*config) << '\n';
         return 0;

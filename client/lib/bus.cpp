@@ -607,13 +607,11 @@ std::expected<void, Error> Bus::broadcast(std::uint16_t address, std::span<const
     return check_response("bus '" + impl_->name + "' (broadcast)", *response);
 }
 
-std::expected<void, Error> check_response(const std::string& what, const shm::Response& r) {
+std::expected<void, Error> check_response(const std::string& what, const shm::Response& r, const Profile* profile) {
     Error e;
     e.exception = r.exception;
     e.reason = r.reason;
     e.lease_holder = r.lease_holder;
-    char reg[16];
-    std::snprintf(reg, sizeof reg, "0x%04X", r.register_address);
     switch (r.status) {
     case shm::Status::Ok: return {};
     case shm::Status::Exception:
@@ -638,11 +636,7 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
         break;
     case shm::Status::Rejected:
         e.kind = ErrorKind::Rejected;
-        e.message = "drivebusd rejected the request to " + what + ": " + std::string(shm::to_string(r.reason)) +
-                    (r.register_address != 0 || r.reason == shm::RejectReason::UnknownRegister ||
-                             r.reason == shm::RejectReason::ReadOnly || r.reason == shm::RejectReason::ValueOutOfRange
-                         ? std::string(" (register ") + reg + ")"
-                         : std::string());
+        e.message = "drivebusd rejected the request to " + what + ": " + rejection_text(r, profile);
         break;
     case shm::Status::QueueFull:
         e.kind = ErrorKind::QueueFull;

@@ -80,8 +80,12 @@ struct Bus::Impl {
 // Process-wide: the iceoryx runtime, started once with a name unique to this process.
 std::expected<void, Error> ensure_runtime(const std::string& application);
 Error make_error(ErrorKind kind, std::string message);
-// A response as an error, when it is one; `what` names the target ("drive pump").
-std::expected<void, Error> check_response(const std::string& what, const shm::Response& response);
+// A response as an error, when it is one; `what` names the target ("drive pump"), `profile`
+// (the drive's, when there is one) explains the register a rejection names.
+std::expected<void, Error> check_response(const std::string& what, const shm::Response& response,
+                                          const Profile* profile = nullptr);
+// A rejection's reason and register, in words.
+std::string rejection_text(const shm::Response& response, const Profile* profile);
 std::string exception_text(std::uint8_t code);
 
 }  // namespace drivebus

@@ -102,7 +102,7 @@ std::expected<std::vector<std::uint16_t>, Error> Drive::read(std::uint16_t addre
     if (!response) {
         return std::unexpected(response.error());
     }
-    if (auto ok = check_response("drive '" + name_ + "'", *response); !ok) {
+    if (auto ok = check_response("drive '" + name_ + "'", *response, profile_.get()); !ok) {
         return std::unexpected(ok.error());
     }
     return std::vector<std::uint16_t>(response->values.begin(), response->values.begin() + response->count);
@@ -139,7 +139,7 @@ std::expected<void, Error> Drive::write(std::uint16_t address, std::span<const s
         lease.length = std::chrono::milliseconds(response->lease_ms);
         lease.renewed = Clock::now();
     }
-    return check_response("drive '" + name_ + "'", *response);
+    return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
 std::expected<void, Error> Drive::write(std::string_view reg, std::span<const std::uint16_t> values,
@@ -159,7 +159,7 @@ std::expected<Identity, Error> Drive::identify() const {
     if (!response) {
         return std::unexpected(response.error());
     }
-    if (auto ok = check_response("drive '" + name_ + "'", *response); !ok) {
+    if (auto ok = check_response("drive '" + name_ + "'", *response, profile_.get()); !ok) {
         return std::unexpected(ok.error());
     }
     return Identity{std::string(shm::view(response->identity[0])), std::string(shm::view(response->identity[1])),
@@ -178,7 +178,7 @@ std::expected<void, Error> Drive::release_control() const {
     if (!response) {
         return std::unexpected(response.error());
     }
-    return check_response("drive '" + name_ + "'", *response);
+    return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
 void Drive::stop_renewing() const {

@@ -51,6 +51,10 @@ struct DriveConfig {
     // and must renew it within `lease`; when it does not, drivebusd applies `fallback`.
     Duration lease = std::chrono::seconds(1);
     LeaseFallback fallback = LeaseFallback::Hold;
+    // The registers the indirect write block's slots select (`write_block`, ATV21: through
+    // F870/F871), in slot order; empty: drivebusd leaves the write block alone. What drivebusd
+    // writes at set-up follows from this and the indirect poll: master::block_setups().
+    std::vector<std::uint16_t> write_block;
 };
 
 struct BusConfig {
@@ -122,6 +126,10 @@ struct LoadOptions {
                                                               const LoadOptions& options = {});
 [[nodiscard]] std::expected<Config, ConfigError> load_config(const std::filesystem::path& file,
                                                              const LoadOptions& options = {});
+
+// What a valid configuration still leaves unsafe, one line each, for the start-up log: a drive
+// whose control lease can only fall back to "hold" keeps running when its application dies.
+[[nodiscard]] std::vector<std::string> start_up_warnings(const Config& config);
 
 // "kernel", "gpio", ...
 [[nodiscard]] std::string_view to_string(DirectionMode mode) noexcept;

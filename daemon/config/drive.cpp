@@ -92,7 +92,7 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
     if (const auto* name = table.get_as<std::string>("name"); name != nullptr && valid_name(name->get())) {
         s.rename(bus + " drive " + in_quotes(name->get()));
     }
-    s.allow_only({"name", "address", "profile", "keep_alive", "lease", "fallback", "poll"});
+    s.allow_only({"name", "address", "profile", "keep_alive", "lease", "fallback", "poll", "write_block"});
     DriveConfig drive;
     if (auto name = s.string("name", Need::Required)) {
         if (!valid_name(*name)) {
@@ -134,6 +134,9 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
                        "name " + in_quotes(poll.name) + " is already another poll of this drive");
         }
         drive.polls.push_back(std::move(poll));
+    }
+    if (!errors.any()) {
+        read_blocks(s, drive);
     }
     return drive;
 }

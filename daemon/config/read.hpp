@@ -71,6 +71,8 @@ using DriveNames = std::map<std::string, std::string, std::less<>>;
 // `bus` names the bus in errors; `format` is the bus's line, checked against the profile.
 [[nodiscard]] DriveConfig read_drive(const toml::table& table, std::size_t index, const std::string& bus,
                                      const rtu::LineFormat& format, Errors& errors, ProfileCache& profiles);
+// The indirect blocks drivebusd sets up on the drive (its indirect poll, its write_block key).
+void read_blocks(Section& s, DriveConfig& drive);
 [[nodiscard]] PollGroup read_poll(const toml::table& table, std::size_t index, const std::string& drive,
                                   const Profile* profile, Errors& errors);
 

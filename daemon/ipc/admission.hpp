@@ -1,12 +1,18 @@
 // What drivebusd does with a client's request before anything reaches the wire: find the drive,
 // check the registers, quantities, values and function against the drive's profile, and build
 // the Modbus request. Pure: no iceoryx, no clock. A rejection names the reason and the register.
+//
+// Every rule applies to the registers a request reaches, not to the address it names: a request
+// through an indirect block is expanded to the registers its slots select, as drivebusd set the
+// block up (config::block_setups), and refused when drivebusd has not. The registers drivebusd
+// relies on (the blocks' selectors, its set-up writes) are refused to every client.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <expected>
 #include <string>
+#include <vector>
 
 #include "config/config.hpp"
 #include "drivebus/shm.hpp"
@@ -21,6 +27,8 @@ struct Admitted {
     rtu::RequestAdu request;         // unset for lease operations
     bool on_wire = true;             // false: LeaseRenew / LeaseRelease
     bool touches_control = false;    // writes a register of the profile's lease_registers
+    // The registers read or written: the request's own, or those a block's slots select.
+    std::vector<std::uint16_t> registers;
 };
 
 struct Rejection {

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "master/block_setup.hpp"
+
 namespace drivebus::master {
 namespace {
 
@@ -80,27 +82,11 @@ Scheduler::Scheduler(const config::BusConfig& bus, rtu::Instant start) : bus_(bu
         drive.last_contact = start;
         for (const auto& g : d.polls) {
             drive.groups.push_back(Group{&g, plan_reads(g, *d.profile, drive.limits), start, std::nullopt});
-            if (g.indirect && drive.setup.empty()) {
-                // Point the block's selectors at the polled registers; the rest select nothing.
-                const IndirectBlock* block = d.profile->block(3);
-                for (std::size_t slot = 0; block != nullptr && slot < block->selectors.size(); ++slot) {
-                    std::uint16_t choice = 0;
-                    if (slot < g.registers.size()) {
-                        for (const auto& [code, name] : block->choices) {
-                            const RegisterInfo* target = d.profile->find(std::string_view(name));
-                            if (target != nullptr && target->address == g.registers[slot].address) {
-                                choice = code;
-                            }
-                        }
-                    }
-                    const RegisterInfo* selector = d.profile->find(std::string_view(block->selectors[slot]));
-                    if (selector != nullptr && selector->address) {
-                        drive.setup.emplace_back(*selector->address, choice);
-                    }
-                }
-                drive.setup_done = drive.setup.empty();
-            }
         }
+        // The selectors of the indirect blocks, as the configuration fixed them (admission
+        // checks client requests through the blocks against the same values).
+        drive.setup = setup_writes(d);
+        drive.setup_done = drive.setup.empty();
         drives_.push_back(std::move(drive));
     }
 }

@@ -225,6 +225,8 @@ enum class RejectReason : std::uint8_t {
     ValueOutOfRange = 6,   // outside the profile's min/max
     Unsupported = 7,       // the function is not supported by that drive (profile)
     Malformed = 8,         // wrong version or size, unknown kind
+    DaemonOwned = 9,       // drivebusd owns the register: a selector of an indirect block, a set-up write
+    BlockNotSetUp = 10,    // through an indirect block, or a slot of it, that drivebusd has not set up
 };
 
 struct Response {
@@ -284,6 +286,8 @@ template <typename T>
         case RejectReason::ValueOutOfRange: return "value out of range";
         case RejectReason::Unsupported: return "function not supported by the drive";
         case RejectReason::Malformed: return "malformed request";
+        case RejectReason::DaemonOwned: return "owned by drivebusd";
+        case RejectReason::BlockNotSetUp: return "indirect block not set up by drivebusd";
     }
     return "unknown";
 }

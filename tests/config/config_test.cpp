@@ -843,6 +843,47 @@ TEST(Read, IndirectWithinTheBlock) {
     EXPECT_EQ(addresses(poll), (std::vector<std::uint16_t>{0xFD00, 0xFD01}));
 }
 
+TEST(Reject, TwoIndirectPollsThatDisagree) {
+    // The block has one set of selectors: the second group would read what the first selected.
+    const auto text = with_poll("indirect = true\n    [[bus.drive.poll]]\n    name = \"slow\"\n"
+                                "    registers = [\"FE03\", \"FE05\"]\n    indirect = true\n    period = \"1s\"");
+    EXPECT_TRUE(rejected(text, {"drive 'pump'", "poll 'slow' and poll 'fast' both read the indirect read block"}));
+    const auto same = with_poll("indirect = true\n    [[bus.drive.poll]]\n    name = \"slow\"\n"
+                                "    registers = [\"FD00\", \"FD01\"]\n    indirect = true\n    period = \"1s\"");
+    EXPECT_EQ(parsed(same).buses.at(0).drives.at(0).polls.size(), 2U);
+}
+
+TEST(Read, WriteBlock) {
+    const auto pump = parsed(with_drive(R"(write_block = ["fa00", "FA01"])")).buses.at(0).drives.at(0);
+    EXPECT_EQ(pump.write_block, (std::vector<std::uint16_t>{0xFA00, 0xFA01}));
+    EXPECT_TRUE(parsed(kValid).buses.at(0).drives.at(0).write_block.empty());
+}
+
+TEST(Reject, WriteBlock) {
+    EXPECT_TRUE(rejected(with_drive(R"(write_block = ["FA00"])"),
+                         {"drive 'pump'", "write_block names 1 registers", "Altivar 21 takes 2-2"}));
+    EXPECT_TRUE(rejected(with_drive(R"(write_block = ["FA00", "FD00"])"),
+                         {"drive 'pump'", "write_block 'FD00' is not one the indirect write block of Altivar 21 can "
+                                          "select (FA00, FA20, FA01, FA50, FA51, FA13)"}));
+    EXPECT_TRUE(rejected(with_drive(R"(write_block = ["FA00", "fa00"])"), {"write_block names FA00 twice"}));
+    EXPECT_TRUE(rejected(with_drive("write_block = \"FA00\""), {"write_block"}));
+    EXPECT_TRUE(rejected(edited(kFan, "profile = \"atv58\"\n", "profile = \"atv58\"\nwrite_block = [\"W400\", \"W401\"]\n"),
+                         {"drive 'fan'", "write_block is set, but Altivar 58 has no indirect write block"}));
+}
+
+TEST(Warnings, ALeaseThatCanOnlyHold) {
+    // The ATV58 profile gives no stop or freewheel word: a dead application leaves it running.
+    const auto fan = start_up_warnings(parsed(kFan));
+    ASSERT_EQ(fan.size(), 1U);
+    EXPECT_NE(fan[0].find("bus 'line1' drive 'fan': profile 'atv58' gives no stop or freewheel command word"),
+              std::string::npos)
+        << fan[0];
+    EXPECT_NE(fan[0].find("\"hold\""), std::string::npos) << fan[0];
+    // The ATV21 can stop, even when its configuration chose to hold.
+    EXPECT_TRUE(start_up_warnings(parsed(kValid)).empty());
+    EXPECT_TRUE(start_up_warnings(parsed(with_drive("fallback = \"hold\""))).empty());
+}
+
 // ---- [ipc] and the control lease ----
 
 TEST(Ipc, Defaults) {

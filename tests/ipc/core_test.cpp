@@ -6,6 +6,7 @@
 #include "ipc/admission.hpp"
 #include "ipc/convert.hpp"
 #include "ipc/lease.hpp"
+#include "master/block_setup.hpp"
 
 namespace drivebus::ipc {
 namespace {
@@ -28,10 +29,10 @@ parity = "none"
   profile = "atv58"
 )";
 
-config::BusConfig bus() {
+config::BusConfig bus(std::string_view text = kConfig) {
     config::LoadOptions options;
     options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
-    auto c = config::parse_config(kConfig, "test.toml", options);
+    auto c = config::parse_config(text, "test.toml", options);
     if (!c) {
         ADD_FAILURE() << c.error().message;
         return {};
@@ -100,10 +101,137 @@ TEST(Admission, EveryRejectionKind) {
     EXPECT_EQ(reason_of(b, bad), RejectReason::Malformed);
 }
 
+// The pump as drivebusd sets it up: its read block polls FD00 and FD01 (F875 = 2, F876 = 1, the
+// other selectors 0), its write block selects the command FA00 and the reference FA01 (F870 = 1,
+// F871 = 3).
+constexpr std::string_view kBlocks = R"([[bus]]
+name = "line1"
+device = "/dev/ttyUSB0"
+parity = "none"
+  [[bus.drive]]
+  name = "pump"
+  address = 1
+  profile = "atv21"
+  write_block = ["FA00", "FA01"]
+    [[bus.drive.poll]]
+    registers = ["FD00", "FD01"]
+    indirect = true
+    period = "100ms"
+  [[bus.drive]]
+  name = "tank"
+  address = 3
+  profile = "atv21"
+  write_block = ["FA51", "FA50"]
+)";
+
 TEST(Admission, TheIndirectBlocksKeepTheirOwnRules) {
-    const auto b = bus();
-    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 5)), RejectReason::None);
+    const auto b = bus(kBlocks);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 2)), RejectReason::None);
     EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 6)), RejectReason::Quantity);
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x1876, {}, 2)), RejectReason::UnknownRegister);
+}
+
+TEST(Admission, TheSelectorsOfEveryBlockBelongToDrivebusd) {
+    const auto b = bus(kBlocks);
+    // Writing F875 = 3 would make the read block return FE03 (output current) where drivebusd
+    // publishes FD00 (output frequency).
+    const auto a = admit(b, request(shm::RequestKind::Write, "pump", 0x0875, {3}));
+    ASSERT_FALSE(a);
+    EXPECT_EQ(a.error().reason, RejectReason::DaemonOwned);
+    EXPECT_EQ(a.error().register_address, 0x0875);
+    EXPECT_EQ(a.error().why, "F875 is owned by drivebusd: selector of the read block at 0x1875");
+    // Every selector, of both blocks, with FC06 or FC16, a value the profile would take or not.
+    for (const std::uint16_t selector : std::initializer_list<std::uint16_t>{0x0870, 0x0871, 0x0875, 0x0876, 0x0877, 0x0878, 0x0879}) {
+        for (const std::uint16_t value : std::initializer_list<std::uint16_t>{0, 1, 3}) {
+            auto w = request(shm::RequestKind::Write, "pump", selector, {value});
+            EXPECT_EQ(reason_of(b, w), RejectReason::DaemonOwned) << std::hex << selector;
+            w.function = 16;
+            EXPECT_EQ(reason_of(b, w), RejectReason::DaemonOwned) << std::hex << selector;
+        }
+    }
+    EXPECT_EQ(admit(b, request(shm::RequestKind::Write, "pump", 0x0870, {1})).error().why,
+              "F870 is owned by drivebusd: selector of the write block at 0x1870");
+    // A broadcast would rewrite them on every drive.
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Broadcast, "", 0x0876, {3})), RejectReason::DaemonOwned);
+    // Reading them changes nothing: allowed.
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "pump", 0x0875, {}, 1)), RejectReason::None);
+    // Owned also where this configuration does not use the block: a client reaches a block only
+    // through the selectors drivebusd wrote, so its own would serve nothing.
+    const auto plain = bus();
+    EXPECT_EQ(reason_of(plain, request(shm::RequestKind::Write, "pump", 0x0875, {3})), RejectReason::DaemonOwned);
+    EXPECT_EQ(reason_of(plain, request(shm::RequestKind::Write, "pump", 0x0871, {3})), RejectReason::DaemonOwned);
+}
+
+TEST(Admission, AWriteThroughTheBlockIsCheckedRegisterByRegister) {
+    const auto b = bus(kBlocks);
+    // Through F870/F871 = FA00/FA01: the command and the reference, so the lease applies.
+    const auto a = admit(b, request(shm::RequestKind::Write, "pump", 0x1870, {0xC400, 1500}));
+    ASSERT_TRUE(a) << a.error().why;
+    EXPECT_TRUE(a->touches_control);
+    EXPECT_EQ(a->registers, (std::vector<std::uint16_t>{0xFA00, 0xFA01}));
+    EXPECT_EQ(a->request.pdu, rtu::Request(rtu::WriteMultipleRegisters{0x1870, rtu::RegisterValues({0xC400, 1500})}));
+    // The tank's block selects FA51 and FA50, neither under the lease; FA50 takes 0-255.
+    const auto tank = admit(b, request(shm::RequestKind::Write, "tank", 0x1870, {700, 12}));
+    ASSERT_TRUE(tank) << tank.error().why;
+    EXPECT_FALSE(tank->touches_control);
+    EXPECT_EQ(tank->registers, (std::vector<std::uint16_t>{0xFA51, 0xFA50}));
+    const auto high = admit(b, request(shm::RequestKind::Write, "tank", 0x1870, {700, 300}));
+    ASSERT_FALSE(high);
+    EXPECT_EQ(high.error().reason, RejectReason::ValueOutOfRange);
+    EXPECT_EQ(high.error().register_address, 0xFA50);
+    const auto over = admit(b, request(shm::RequestKind::Write, "tank", 0x1870, {1024, 1}));
+    ASSERT_FALSE(over);
+    EXPECT_EQ(over.error().register_address, 0xFA51);
+    // A broadcast through the block reaches each drive's own targets: the pump's command.
+    const auto all = admit(b, request(shm::RequestKind::Broadcast, "", 0x1870, {1000, 10}));
+    ASSERT_TRUE(all) << all.error().why;
+    EXPECT_TRUE(all->touches_control);
+    EXPECT_EQ(all->registers, (std::vector<std::uint16_t>{0xFA00, 0xFA01, 0xFA50, 0xFA51}));
+}
+
+TEST(Admission, AReadOfTheBlockNamesTheRegistersItReturns) {
+    const auto b = bus(kBlocks);
+    const auto a = admit(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 2));
+    ASSERT_TRUE(a) << a.error().why;
+    EXPECT_EQ(a->registers, (std::vector<std::uint16_t>{0xFD00, 0xFD01}));
+    EXPECT_EQ(a->request.pdu, rtu::Request(rtu::ReadHoldingRegisters{0x1875, 2}));
+    const auto plain = admit(b, request(shm::RequestKind::Read, "pump", 0xFE03, {}, 1));
+    ASSERT_TRUE(plain);
+    EXPECT_EQ(plain->registers, (std::vector<std::uint16_t>{0xFE03}));
+}
+
+TEST(Admission, ABlockDrivebusdHasNotSetUpIsRefused) {
+    // What its selectors hold is unknown to drivebusd, so nothing about the access could be checked.
+    const auto plain = bus();
+    for (const auto& r : {request(shm::RequestKind::Read, "pump", 0x1875, {}, 5),
+                          request(shm::RequestKind::Write, "pump", 0x1870, {0xC400, 1500})}) {
+        const auto a = admit(plain, r);
+        ASSERT_FALSE(a);
+        EXPECT_EQ(a.error().reason, RejectReason::BlockNotSetUp);
+        EXPECT_EQ(a.error().register_address, r.start);
+        EXPECT_NE(a.error().why.find("not set up by drivebusd on drive pump"), std::string::npos) << a.error().why;
+    }
+    // Set up for two slots: a third selects nothing.
+    const auto b = bus(kBlocks);
+    const auto a = admit(b, request(shm::RequestKind::Read, "pump", 0x1875, {}, 3));
+    ASSERT_FALSE(a);
+    EXPECT_EQ(a.error().reason, RejectReason::BlockNotSetUp);
+    EXPECT_NE(a.error().why.find("slot 3 of the read block at 0x1875"), std::string::npos) << a.error().why;
+    // The tank has a write block but no indirect poll.
+    EXPECT_EQ(reason_of(b, request(shm::RequestKind::Read, "tank", 0x1875, {}, 2)), RejectReason::BlockNotSetUp);
+    // A broadcast through a block that some drive has not set up.
+    EXPECT_EQ(reason_of(plain, request(shm::RequestKind::Broadcast, "", 0x1870, {1, 2})), RejectReason::BlockNotSetUp);
+}
+
+TEST(Admission, TheSetUpIsWhatTheSchedulerWrites) {
+    const auto b = bus(kBlocks);
+    // F875-F879 then F870/F871, as the drive's set-up sends them.
+    EXPECT_EQ(master::setup_writes(b.drives.at(0)),
+              (std::vector<std::pair<std::uint16_t, std::uint16_t>>{
+                  {0x0875, 2}, {0x0876, 1}, {0x0877, 0}, {0x0878, 0}, {0x0879, 0}, {0x0870, 1}, {0x0871, 3}}));
+    EXPECT_EQ(master::setup_writes(b.drives.at(1)),
+              (std::vector<std::pair<std::uint16_t, std::uint16_t>>{{0x0870, 5}, {0x0871, 4}}));
+    EXPECT_TRUE(master::setup_writes(bus().drives.at(0)).empty());
 }
 
 TEST(Admission, CommandAndReferenceWritesNeedTheLease) {

@@ -779,8 +779,15 @@ TEST(Control, Atv58HasNoCommandWords) {
     const auto p = load_real("atv58");
     ASSERT_TRUE(p.control.has_value());
     EXPECT_EQ(p.control->lease_registers, (std::vector<std::string>{"W400", "W401"}));
+    EXPECT_EQ(p.control->command, "W400");
+    EXPECT_EQ(p.control->reference, "W401");
+    // Its manual gives no value or bit of W400: no word to stop it with, so its lease can only hold.
     EXPECT_FALSE(p.control->stop.has_value());
+    EXPECT_FALSE(p.control->freewheel.has_value());
     EXPECT_FALSE(p.control->run_forward.has_value());
+    EXPECT_FALSE(p.control->run_reverse.has_value());
+    EXPECT_FALSE(p.control->fault_reset.has_value());
+    EXPECT_TRUE(p.control->status.empty());
 }
 
 TEST(Control, NamesTakeTheRegistersSpelling) {
