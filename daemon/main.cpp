@@ -22,7 +22,7 @@
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
 #include "log/log.hpp"
-#include "rt/realtime.hpp"
+#include "rt/memory.hpp"
 #include "serial/termios.hpp"
 #include "sys/event_loop.hpp"
 
@@ -58,6 +58,11 @@ std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops,
                std::to_string(s.counters.replies) + " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
     }
     return out;
+}
+
+std::string fmt_mib(const std::string& before, std::size_t kib) {
+    const auto tenths = (kib * 10 + 512) / 1024;
+    return before + std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " MiB";
 }
 
 }  // namespace
@@ -109,16 +114,6 @@ int run_main(int argc, char** argv) {
     sys::UniqueFd signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
 
     const auto& rt = config->realtime;
-    if (rt.mode != config::RealtimeMode::Off && rt.lock_memory) {
-        if (auto locked = rt::lock_memory(); !locked) {
-            if (rt.mode == config::RealtimeMode::Required) {
-                log::error(locked.error() + "; [realtime] mode is required");
-                return kExitStartup;
-            }
-            log::warning(locked.error() + "; running best-effort");
-        }
-    }
-
     auto ipc_host = ipc::Host::start(*config, "drivebusd-" + std::to_string(::getpid()));
     if (!ipc_host) {
         log::error(ipc_host.error());
@@ -135,6 +130,15 @@ int run_main(int argc, char** argv) {
 
     std::vector<std::unique_ptr<ipc::BusService>> services;
     std::vector<std::unique_ptr<bus::BusLoop>> loops;
+    // Services first: their threads read their loop's state.
+    const auto stop_all = [&] {
+        for (auto& s : services) {
+            s->stop();
+        }
+        for (auto& l : loops) {
+            l->stop();
+        }
+    };
     for (const auto& b : config->buses) {
         auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout());
         master::EngineCallbacks callbacks;
@@ -166,6 +170,7 @@ int run_main(int argc, char** argv) {
         auto loop = std::make_unique<bus::BusLoop>(b, callbacks, std::move(loop_options));
         if (auto started = loop->start(); !started) {
             log::error(started.error() + "; [realtime] mode is required");
+            stop_all();
             return kExitStartup;
         }
         log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
@@ -173,6 +178,24 @@ int run_main(int argc, char** argv) {
         service->start(*loop);
         loops.push_back(std::move(loop));
         services.push_back(std::move(service));
+    }
+    // Locked once the shared memory is mapped and every thread runs, so that what is locked is
+    // what this process has, less iceoryx's management segment (see rt/memory.hpp).
+    if (rt.mode != config::RealtimeMode::Off && rt.lock_memory) {
+        const std::vector<std::string> left_out{ipc::Host::management_segment()};
+        auto locked = rt::lock_memory(left_out);
+        if (!locked) {
+            if (rt.mode == config::RealtimeMode::Required) {
+                log::error(locked.error() + "; [realtime] mode is required");
+                stop_all();
+                return kExitStartup;
+            }
+            log::warning(locked.error() + "; running best-effort");
+        } else {
+            log::info(fmt_mib("memory locked: ", locked->locked_kib) +
+                      fmt_mib(" (VmLck); left unlocked: the iceoryx management segment, ", locked->left_out_kib) +
+                      " mapped");
+        }
     }
     log::notice(std::string("drivebusd ") + DRIVEBUS_VERSION_STRING + " running: " + describe(*config));
     sd_notify(0, "READY=1");
@@ -213,12 +236,7 @@ int run_main(int argc, char** argv) {
     (void)loop.run();
 
     sd_notify(0, "STOPPING=1");
-    for (auto& s : services) {
-        s->stop();
-    }
-    for (auto& l : loops) {
-        l->stop();
-    }
+    stop_all();
     log::notice("stopped: " + status_line(loops, services));
     return 0;
 }

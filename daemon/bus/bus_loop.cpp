@@ -10,6 +10,7 @@
 #include <future>
 
 #include "log/log.hpp"
+#include "rt/memory.hpp"
 #include "rt/realtime.hpp"
 #include "serial/direction.hpp"
 #include "serial/port.hpp"
@@ -409,6 +410,9 @@ std::expected<void, std::string> BusLoop::start() {
                 log::warning("bus " + bus_.name + ": " + rt.error() + "; running best-effort");
             }
         }
+        // Resident before the memory is locked (which locks what is resident, and the rest of
+        // a stack only as it is touched): the loop's first deep call must not fault.
+        rt::prefault_stack();
         started.set_value({});
         impl_->run();
     });

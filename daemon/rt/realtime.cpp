@@ -2,20 +2,10 @@
 
 #include <pthread.h>
 #include <sched.h>
-#include <sys/mman.h>
 
-#include <cerrno>
 #include <cstring>
 
 namespace drivebus::rt {
-
-std::expected<void, std::string> lock_memory() {
-    if (::mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
-        return std::unexpected(std::string("mlockall: ") + std::strerror(errno) +
-                               " (needs CAP_IPC_LOCK or a memlock limit)");
-    }
-    return {};
-}
 
 std::expected<void, std::string> make_realtime(int priority, const std::vector<int>& cpus) {
     if (!cpus.empty()) {
