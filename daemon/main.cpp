@@ -23,6 +23,7 @@
 #include "ipc/host.hpp"
 #include "log/log.hpp"
 #include "rt/memory.hpp"
+#include "rt/realtime.hpp"
 #include "serial/termios.hpp"
 #include "sys/event_loop.hpp"
 
@@ -58,6 +59,24 @@ std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops,
                std::to_string(s.counters.replies) + " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
     }
     return out;
+}
+
+// The service thread's priority under the bus thread's (rt::service_priority()); refused, a
+// warning: the bus itself runs on.
+void service_thread_realtime(const config::RealtimeConfig& rt, const std::string& bus) {
+    if (rt.mode == config::RealtimeMode::Off) {
+        return;
+    }
+    const auto priority = rt::service_priority(rt.priority);
+    if (!priority) {
+        log::info("bus " + bus + ": the ipc thread stays at normal priority, the bus threads' priority 1 has "
+                  "nothing under it");
+        return;
+    }
+    if (auto done = rt::make_realtime(*priority, {}); !done) {
+        log::warning("bus " + bus + ": ipc thread (control leases and their fallback): " + done.error() +
+                     "; running at normal priority");
+    }
 }
 
 std::string fmt_mib(const std::string& before, std::size_t kib) {
@@ -175,7 +194,7 @@ int run_main(int argc, char** argv) {
         }
         log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
                     std::to_string(b.drives.size()) + " drives");
-        service->start(*loop);
+        service->start(*loop, [&rt, name = b.name] { service_thread_realtime(rt, name); });
         loops.push_back(std::move(loop));
         services.push_back(std::move(service));
     }

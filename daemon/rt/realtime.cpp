@@ -3,6 +3,7 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include <algorithm>
 #include <cstring>
 
 namespace drivebus::rt {
@@ -25,6 +26,13 @@ std::expected<void, std::string> make_realtime(int priority, const std::vector<i
                                std::strerror(rc) + " (needs CAP_SYS_NICE or an rtprio limit)");
     }
     return {};
+}
+
+std::optional<int> service_priority(int bus_priority) {
+    if (bus_priority <= 1) {
+        return std::nullopt;
+    }
+    return std::max(bus_priority - kServiceBelowBus, 1);
 }
 
 }  // namespace drivebus::rt

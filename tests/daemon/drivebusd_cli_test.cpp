@@ -6,8 +6,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <optional>
 #include <sstream>
 
+#include <sched.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -190,10 +193,30 @@ std::size_t mapped_kib(int pid, const std::string& file) {
     return kib;
 }
 
-// With the shipped real-time defaults (best-effort, lock_memory = true), drivebusd locks its own
-// memory once iceoryx is set up, and not iceoryx's management segment, which it maps twice
-// (RouDi and the runtime) at tens of MiB each: locked, it made 545 MB of VmLck.
-TEST_F(DrivebusdCli, LocksItsOwnMemoryNotIceoryxsManagementSegment) {
+// The scheduling policy and real-time priority of `pid`'s thread named `comm`, from
+// /proc/PID/task/TID/stat (fields 41 and 40); nullopt when no thread has that name.
+std::optional<std::pair<int, int>> thread_scheduling(int pid, const std::string& comm) {
+    const fs::path tasks = fs::path("/proc") / std::to_string(pid) / "task";
+    for (const auto& task : fs::directory_iterator(tasks)) {
+        if (slurp(task.path() / "comm") != comm + "\n") {
+            continue;
+        }
+        const std::string stat = slurp(task.path() / "stat");
+        std::istringstream fields(stat.substr(stat.rfind(')') + 2));  // from field 3, the state
+        std::vector<std::string> f{std::istream_iterator<std::string>(fields), {}};
+        if (f.size() < 39) {
+            return std::nullopt;
+        }
+        return std::pair{std::stoi(f[38]), std::stoi(f[37])};
+    }
+    return std::nullopt;
+}
+
+// With the shipped real-time defaults (best-effort, priority 50, lock_memory = true), drivebusd
+// locks its own memory once iceoryx is set up, and not iceoryx's management segment, which it
+// maps twice (RouDi and the runtime) at tens of MiB each: locked, it made 545 MB of VmLck. The
+// bus thread runs SCHED_FIFO 50, the ipc thread (control leases) SCHED_FIFO 40.
+TEST_F(DrivebusdCli, LocksItsOwnMemoryAndRunsTheIpcThreadUnderTheBusThread) {
     if (::geteuid() != 0) {
         GTEST_SKIP() << "locking memory needs CAP_IPC_LOCK (root)";
     }
@@ -216,6 +239,12 @@ TEST_F(DrivebusdCli, LocksItsOwnMemoryNotIceoryxsManagementSegment) {
     EXPECT_GE(management, 16U * 1024U) << "iceoryx's management segment is not where it was expected";
     EXPECT_GT(locked, 1024U) << "nothing locked";
     EXPECT_LT(locked, management / 2) << locked << " KiB locked with " << management << " KiB of management segment";
+    EXPECT_EQ(thread_scheduling(daemon.pid(), "bus line1"), std::pair(SCHED_FIFO, 50));
+    // The ipc thread sets its own scheduling as it starts.
+    EXPECT_TRUE(wait_until(
+        [&] { return thread_scheduling(daemon.pid(), "ipc line1") == std::pair(SCHED_FIFO, 40); }, 5s))
+        << "ipc line1: policy and priority " << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).first
+        << " " << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).second;
     EXPECT_EQ(daemon.stop(), 0) << daemon.output();
 }
 

@@ -1,6 +1,6 @@
 // Real-time set-up: which mappings are locked how, read from /proc/PID/maps text, and the
 // locking itself in this process, with a large shared-memory file standing in for iceoryx's
-// management segment.
+// management segment; the service thread's priority under the bus threads'.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mman.h>
@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rt/memory.hpp"
+#include "rt/realtime.hpp"
 #include "sys/posix.hpp"
 
 namespace drivebus::rt {
@@ -156,6 +157,15 @@ TEST(LockMemoryTest, LocksWhatTheProcessUsesAndLeavesTheSegmentOut) {
     EXPECT_GE(*vm_lck, 2048U) << "the payload segment and the anonymous memory in use are locked";
     EXPECT_LT(*vm_lck, 48U * 1024U) << "far more locked than this process uses";
     ::munmap(reserve, 64 * kMiB);
+}
+
+TEST(ServicePriorityTest, TenUnderTheBusThreadsAtLeastOneNothingUnderOne) {
+    EXPECT_EQ(service_priority(50), 40);
+    EXPECT_EQ(service_priority(99), 89);
+    EXPECT_EQ(service_priority(11), 1);
+    EXPECT_EQ(service_priority(5), 1);
+    EXPECT_EQ(service_priority(2), 1);
+    EXPECT_EQ(service_priority(1), std::nullopt);
 }
 
 }  // namespace
