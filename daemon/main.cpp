@@ -22,9 +22,11 @@
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
 #include "log/log.hpp"
+#include "rt/kernel_facts.hpp"
 #include "rt/memory.hpp"
 #include "rt/realtime.hpp"
 #include "serial/termios.hpp"
+#include "serial/tuning.hpp"
 #include "sys/event_loop.hpp"
 
 using namespace drivebus;
@@ -69,7 +71,8 @@ void service_thread_realtime(const config::RealtimeConfig& rt, const std::string
     }
     const auto priority = rt::service_priority(rt.priority);
     if (!priority) {
-        log::info("bus " + bus + ": the ipc thread stays at normal priority, the bus threads' priority 1 has "
+        log::info("bus " + bus +
+                  ": the ipc thread stays at normal priority, the bus threads' priority 1 has "
                   "nothing under it");
         return;
     }
@@ -158,7 +161,14 @@ int run_main(int argc, char** argv) {
             l->stop();
         }
     };
+    // What stands on the kernel's side between the wire and each bus's reads, once per bus at
+    // start-up: a notice where a setting works against exact framing (docs/rs485.md).
+    const auto kernel = rt::read_kernel_facts(rt.mode == config::RealtimeMode::Off ? std::vector<int>{} : rt.cpus);
     for (const auto& b : config->buses) {
+        for (const auto& finding : rt::judge(kernel, rt::read_port_facts(serial::tty_name(b.device)))) {
+            log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
+                       "bus " + b.name + ": " + finding.text);
+        }
         auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout());
         master::EngineCallbacks callbacks;
         callbacks.client_result = [svc = service.get()](std::uint64_t correlation, const master::Result& result) {

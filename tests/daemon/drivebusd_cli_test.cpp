@@ -241,10 +241,11 @@ TEST_F(DrivebusdCli, LocksItsOwnMemoryAndRunsTheIpcThreadUnderTheBusThread) {
     EXPECT_LT(locked, management / 2) << locked << " KiB locked with " << management << " KiB of management segment";
     EXPECT_EQ(thread_scheduling(daemon.pid(), "bus line1"), std::pair(SCHED_FIFO, 50));
     // The ipc thread sets its own scheduling as it starts.
-    EXPECT_TRUE(wait_until(
-        [&] { return thread_scheduling(daemon.pid(), "ipc line1") == std::pair(SCHED_FIFO, 40); }, 5s))
-        << "ipc line1: policy and priority " << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).first
-        << " " << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).second;
+    EXPECT_TRUE(
+        wait_until([&] { return thread_scheduling(daemon.pid(), "ipc line1") == std::pair(SCHED_FIFO, 40); }, 5s))
+        << "ipc line1: policy and priority "
+        << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).first << " "
+        << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).second;
     EXPECT_EQ(daemon.stop(), 0) << daemon.output();
 }
 

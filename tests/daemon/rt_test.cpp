@@ -8,10 +8,12 @@
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
 
+#include "rt/kernel_facts.hpp"
 #include "rt/memory.hpp"
 #include "rt/realtime.hpp"
 #include "sys/posix.hpp"
@@ -54,9 +56,8 @@ TEST(MapsTest, ReadsRangesAccessAndPaths) {
 TEST(MapsTest, CodeAndPayloadWholeHeapAndStacksAsUsedManagementReservesAndKernelNot) {
     const auto maps = parse_maps(kMaps);
     const std::vector<std::string> left_out{"/dev/shm/iceoryx_mgmt"};
-    const std::vector<Lock> expected{Lock::Whole,    Lock::Whole, Lock::Resident, Lock::No,
-                                     Lock::Whole,    Lock::No,    Lock::Resident, Lock::Whole,
-                                     Lock::Resident, Lock::No,    Lock::No,       Lock::No};
+    const std::vector<Lock> expected{Lock::Whole,    Lock::Whole, Lock::Resident, Lock::No, Lock::Whole, Lock::No,
+                                     Lock::Resident, Lock::Whole, Lock::Resident, Lock::No, Lock::No,    Lock::No};
     ASSERT_EQ(maps.size(), expected.size());
     for (std::size_t i = 0; i < maps.size(); ++i) {
         EXPECT_EQ(how_to_lock(maps[i], left_out), expected[i]) << "line " << i << ": " << maps[i].path;
@@ -120,7 +121,8 @@ std::size_t ShmFile::resident_pages() const {
 std::size_t resident_pages(const void* data, std::size_t bytes) {
     const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
     std::vector<unsigned char> in_core((bytes + page - 1) / page);
-    if (::mincore(const_cast<void*>(data), bytes, in_core.data()) != 0) {  // NOLINT(cppcoreguidelines-pro-type-const-cast)
+    if (::mincore(const_cast<void*>(data), bytes, in_core.data()) !=
+        0) {  // NOLINT(cppcoreguidelines-pro-type-const-cast)
         throw std::runtime_error("mincore: " + std::string(std::strerror(errno)));
     }
     return static_cast<std::size_t>(std::ranges::count_if(in_core, [](unsigned char c) { return (c & 1) != 0; }));
@@ -166,6 +168,125 @@ TEST(ServicePriorityTest, TenUnderTheBusThreadsAtLeastOneNothingUnderOne) {
     EXPECT_EQ(service_priority(5), 1);
     EXPECT_EQ(service_priority(2), 1);
     EXPECT_EQ(service_priority(1), std::nullopt);
+}
+
+TEST(KernelFactsTest, CpumasksAsSysfsWritesThem) {
+    EXPECT_EQ(parse_cpumask("f"), (std::vector<int>{0, 1, 2, 3}));
+    EXPECT_EQ(parse_cpumask("00000000,00000005"), (std::vector<int>{0, 2}));
+    EXPECT_EQ(parse_cpumask("1,00000000"), (std::vector<int>{32}));
+    EXPECT_EQ(parse_cpumask("A"), (std::vector<int>{1, 3}));
+    EXPECT_EQ(parse_cpumask(""), std::nullopt);
+    EXPECT_EQ(parse_cpumask("0-3"), std::nullopt) << "a CPU list is not a mask";
+}
+
+std::vector<std::string> texts(const std::vector<Finding>& findings, bool against) {
+    std::vector<std::string> out;
+    for (const auto& f : findings) {
+        if (f.against_framing == against) {
+            out.push_back(f.text);
+        }
+    }
+    return out;
+}
+
+TEST(KernelFactsTest, AStockKernelAndAWorkerKeptOffTheBusCpusWorkAgainstFraming) {
+    const KernelFacts kernel{"#1 SMP PREEMPT_DYNAMIC Debian 6.1.0", std::nullopt, "c", {1}};
+    const auto findings = judge(kernel, PortFacts{"ttyS1", {}, {}});
+    ASSERT_EQ(findings.size(), 2U) << "nothing about a port attribute it does not have";
+    EXPECT_EQ(texts(findings, true),
+              (std::vector<std::string>{
+                  "kernel: not PREEMPT_RT (#1 SMP PREEMPT_DYNAMIC Debian 6.1.0): under load, received bytes can reach "
+                  "drivebusd milliseconds after they were on the wire",
+                  "tty worker (unbound workqueue, normal priority) on CPUs 2-3, none of the bus threads' CPUs 1: kept "
+                  "off them, it waits behind the load on the others"}));
+}
+
+TEST(KernelFactsTest, PreemptRtAndAWorkerOnTheBusCpusAreInfo) {
+    for (const auto& kernel : {KernelFacts{"#1 SMP PREEMPT_RT Debian 6.1.0-rt", std::nullopt, "c", {2, 3}},
+                               KernelFacts{"#1 SMP", "1", "c", {3, 2}}}) {
+        const auto findings = judge(kernel, PortFacts{"ttyS1", {}, {}});
+        ASSERT_EQ(findings.size(), 2U);
+        EXPECT_TRUE(texts(findings, true).empty()) << texts(findings, true).front();
+        EXPECT_EQ(findings[0].text, "kernel: PREEMPT_RT (" + kernel.version +
+                                        "): interrupt handlers run in threads that can be given real-time priority");
+        EXPECT_EQ(findings[1].text,
+                  "tty worker (unbound workqueue, normal priority) on CPUs 2-3, all of them the bus threads' CPUs 2-3");
+    }
+}
+
+TEST(KernelFactsTest, WorkerCpusAgainstAnyAndSomeBusCpus) {
+    KernelFacts kernel{"#1 SMP PREEMPT_RT", std::nullopt, "f", {}};
+    EXPECT_EQ(judge(kernel, {})[1].text,
+              "tty worker (unbound workqueue, normal priority) on CPUs 0-3; the bus threads "
+              "on any CPU: it competes with every other task");
+    kernel.bus_cpus = {3, 5};
+    EXPECT_EQ(judge(kernel, {})[1].text,
+              "tty worker (unbound workqueue, normal priority) on CPUs 0-3, of them the bus threads' 3");
+    EXPECT_FALSE(judge(kernel, {})[1].against_framing);
+    kernel.unbound_cpumask.reset();
+    EXPECT_EQ(judge(kernel, {})[1].text, "tty worker (unbound workqueue): its cpumask is not readable");
+}
+
+TEST(KernelFactsTest, PortAttributesAgainstFramingOnlyWhenDrivebusdCannotSetThem) {
+    const KernelFacts kernel{"#1 SMP PREEMPT_RT", std::nullopt, "1", {0}};
+    auto port = PortFacts{"ttyUSB0", Attribute{"16", true}, std::nullopt};
+    auto findings = judge(kernel, port);
+    ASSERT_EQ(findings.size(), 3U);
+    EXPECT_EQ(findings[2].text, "ttyUSB0: latency_timer 16 ms; drivebusd sets 1 ms when it opens the port");
+    EXPECT_FALSE(findings[2].against_framing);
+    port.latency_timer = Attribute{"16", false};
+    findings = judge(kernel, port);
+    EXPECT_EQ(findings[2].text,
+              "ttyUSB0: latency_timer 16 ms, not writable: the adapter holds received bytes back up "
+              "to 16 ms (a udev rule can set 1)");
+    EXPECT_TRUE(findings[2].against_framing);
+    port.latency_timer = Attribute{"1", false};
+    EXPECT_EQ(judge(kernel, port)[2].text, "ttyUSB0: latency_timer 1 ms");
+    EXPECT_FALSE(judge(kernel, port)[2].against_framing);
+
+    port = PortFacts{"ttyS1", std::nullopt, Attribute{"8", false}};
+    findings = judge(kernel, port);
+    ASSERT_EQ(findings.size(), 3U);
+    EXPECT_EQ(findings[2].text,
+              "ttyS1: rx_trig_bytes 8, not writable: received bytes wait in the FIFO for 8 of them "
+              "or its time-out (about 4 characters)");
+    EXPECT_TRUE(findings[2].against_framing);
+    port.rx_trig_bytes = Attribute{"8", true};
+    EXPECT_EQ(judge(kernel, port)[2].text,
+              "ttyS1: rx_trig_bytes 8; drivebusd sets the lowest level when it opens the port");
+    port.rx_trig_bytes = Attribute{"1", false};
+    EXPECT_EQ(judge(kernel, port)[2].text, "ttyS1: rx_trig_bytes 1");
+}
+
+// The reading side, on a made-up /sys.
+TEST(KernelFactsTest, ReadsSysfs) {
+    const auto root = std::filesystem::temp_directory_path() / ("drivebus-sysfs-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(root / "kernel");
+    std::filesystem::create_directories(root / "devices" / "virtual" / "workqueue");
+    std::filesystem::create_directories(root / "class" / "tty" / "ttyUSB0" / "device");
+    std::filesystem::create_directories(root / "class" / "tty" / "ttyS1");
+    std::ofstream(root / "kernel" / "realtime") << "1\n";
+    std::ofstream(root / "devices" / "virtual" / "workqueue" / "cpumask") << "00000000,00000003\n";
+    std::ofstream(root / "class" / "tty" / "ttyUSB0" / "device" / "latency_timer") << "16\n";
+    std::ofstream(root / "class" / "tty" / "ttyS1" / "rx_trig_bytes") << "14\n";
+    const auto kernel = read_kernel_facts({1}, root);
+    EXPECT_FALSE(kernel.version.empty());
+    EXPECT_EQ(kernel.realtime, "1");
+    EXPECT_EQ(kernel.unbound_cpumask, "00000000,00000003");
+    EXPECT_EQ(kernel.bus_cpus, std::vector<int>{1});
+    const auto usb = read_port_facts("ttyUSB0", root / "class" / "tty");
+    ASSERT_TRUE(usb.latency_timer.has_value());
+    EXPECT_EQ(usb.latency_timer->value, "16");
+    EXPECT_TRUE(usb.latency_timer->writable);
+    EXPECT_FALSE(usb.rx_trig_bytes.has_value());
+    const auto uart = read_port_facts("ttyS1", root / "class" / "tty");
+    EXPECT_FALSE(uart.latency_timer.has_value());
+    ASSERT_TRUE(uart.rx_trig_bytes.has_value());
+    EXPECT_EQ(uart.rx_trig_bytes->value, "14");
+    const auto none = read_kernel_facts({}, root / "nothing");
+    EXPECT_EQ(none.realtime, std::nullopt);
+    EXPECT_EQ(none.unbound_cpumask, std::nullopt);
+    std::filesystem::remove_all(root);
 }
 
 }  // namespace
