@@ -145,8 +145,12 @@ std::expected<void, sys::SysError> lock_resident(const Mapping& mapping) {
 }  // namespace
 
 std::expected<LockedMemory, std::string> lock_memory(std::span<const std::string> left_out) {
-    const auto failed = [](const std::string& what, int error) {
-        return std::unexpected(what + ": " + std::strerror(error) + " (needs CAP_IPC_LOCK or a memlock limit)");
+    const auto failed = [](const sys::SysError& error, const std::string& what) {
+        // mincore() is refused only by a system call filter that leaves it out.
+        const char* const needs = std::string_view(error.call) == "mincore" ? "a system call filter that allows mincore"
+                                                                            : "CAP_IPC_LOCK or a memlock limit";
+        return std::unexpected(std::string(error.call) + " " + what + ": " + std::strerror(error.error) + " (needs " +
+                               needs + ")");
     };
     LockedMemory result;
     for (const Mapping& m : parse_maps(slurp("/proc/self/maps"))) {
@@ -168,8 +172,7 @@ std::expected<LockedMemory, std::string> lock_memory(std::span<const std::string
         }
         // ENOMEM also says that the range is no longer (all) mapped: another thread unmapped it.
         if (!done && !(done.error().error == ENOMEM && !still_mapped(m))) {
-            return failed(std::string(done.error().call) + " " + (m.path.empty() ? "anonymous memory" : m.path),
-                          done.error().error);
+            return failed(done.error(), m.path.empty() ? "anonymous memory" : m.path);
         }
     }
     result.locked_kib = status_kib(slurp("/proc/self/status"), "VmLck").value_or(0);
