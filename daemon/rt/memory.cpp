@@ -115,29 +115,34 @@ Lock how_to_lock(const Mapping& mapping, std::span<const std::string> left_out) 
 
 namespace {
 
-// mlock() of the runs of resident pages in `mapping` (mincore), so that nothing is added.
+// mlock() of the runs of resident pages in `mapping` (mincore), so that nothing is added. A
+// window at a time: a sanitizer's shadow memory is one mapping of terabytes.
 std::expected<void, sys::SysError> lock_resident(const Mapping& mapping) {
     const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
-    std::vector<unsigned char> resident(mapping.bytes() / page);
-    auto* const start = reinterpret_cast<void*>(mapping.begin);  // NOLINT(performance-no-int-to-ptr)
-    if (auto probed = sys::posix_call("mincore", [&] { return ::mincore(start, mapping.bytes(), resident.data()); });
-        !probed) {
-        return std::unexpected(probed.error());
-    }
-    for (std::size_t i = 0; i < resident.size();) {
-        if ((resident[i] & 1U) == 0) {
-            ++i;
-            continue;
+    constexpr std::uintptr_t kWindowPages = std::uintptr_t{1} << 18;
+    std::vector<unsigned char> resident(kWindowPages);
+    for (std::uintptr_t window = mapping.begin; window < mapping.end; window += kWindowPages * page) {
+        const std::uintptr_t pages = std::min(kWindowPages, (mapping.end - window) / page);
+        auto* const start = reinterpret_cast<void*>(window);  // NOLINT(performance-no-int-to-ptr)
+        if (auto probed = sys::posix_call("mincore", [&] { return ::mincore(start, pages * page, resident.data()); });
+            !probed) {
+            return std::unexpected(probed.error());
         }
-        std::size_t end = i;
-        while (end < resident.size() && (resident[end] & 1U) != 0) {
-            ++end;
+        for (std::uintptr_t i = 0; i < pages;) {
+            if ((resident[i] & 1U) == 0) {
+                ++i;
+                continue;
+            }
+            std::uintptr_t end = i;
+            while (end < pages && (resident[end] & 1U) != 0) {
+                ++end;
+            }
+            auto* const run = reinterpret_cast<void*>(window + i * page);  // NOLINT(performance-no-int-to-ptr)
+            if (auto done = sys::posix_call("mlock", [&] { return ::mlock(run, (end - i) * page); }); !done) {
+                return std::unexpected(done.error());
+            }
+            i = end;
         }
-        auto* const run = reinterpret_cast<void*>(mapping.begin + i * page);  // NOLINT(performance-no-int-to-ptr)
-        if (auto done = sys::posix_call("mlock", [&] { return ::mlock(run, (end - i) * page); }); !done) {
-            return std::unexpected(done.error());
-        }
-        i = end;
     }
     return {};
 }
