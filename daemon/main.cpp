@@ -22,8 +22,11 @@
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
 #include "log/log.hpp"
+#include "rt/kernel_facts.hpp"
+#include "rt/memory.hpp"
 #include "rt/realtime.hpp"
 #include "serial/termios.hpp"
+#include "serial/tuning.hpp"
 #include "sys/event_loop.hpp"
 
 using namespace drivebus;
@@ -58,6 +61,30 @@ std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops,
                std::to_string(s.counters.replies) + " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
     }
     return out;
+}
+
+// The service thread's priority under the bus thread's (rt::service_priority()); refused, a
+// warning: the bus itself runs on.
+void service_thread_realtime(const config::RealtimeConfig& rt, const std::string& bus) {
+    if (rt.mode == config::RealtimeMode::Off) {
+        return;
+    }
+    const auto priority = rt::service_priority(rt.priority);
+    if (!priority) {
+        log::info("bus " + bus +
+                  ": the ipc thread stays at normal priority, the bus threads' priority 1 has "
+                  "nothing under it");
+        return;
+    }
+    if (auto done = rt::make_realtime(*priority, {}); !done) {
+        log::warning("bus " + bus + ": ipc thread (control leases and their fallback): " + done.error() +
+                     "; running at normal priority");
+    }
+}
+
+std::string fmt_mib(const std::string& before, std::size_t kib) {
+    const auto tenths = (kib * 10 + 512) / 1024;
+    return before + std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " MiB";
 }
 
 }  // namespace
@@ -112,16 +139,6 @@ int run_main(int argc, char** argv) {
     sys::UniqueFd signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
 
     const auto& rt = config->realtime;
-    if (rt.mode != config::RealtimeMode::Off && rt.lock_memory) {
-        if (auto locked = rt::lock_memory(); !locked) {
-            if (rt.mode == config::RealtimeMode::Required) {
-                log::error(locked.error() + "; [realtime] mode is required");
-                return kExitStartup;
-            }
-            log::warning(locked.error() + "; running best-effort");
-        }
-    }
-
     auto ipc_host = ipc::Host::start(*config, "drivebusd-" + std::to_string(::getpid()));
     if (!ipc_host) {
         log::error(ipc_host.error());
@@ -138,7 +155,23 @@ int run_main(int argc, char** argv) {
 
     std::vector<std::unique_ptr<ipc::BusService>> services;
     std::vector<std::unique_ptr<bus::BusLoop>> loops;
+    // Services first: their threads read their loop's state.
+    const auto stop_all = [&] {
+        for (auto& s : services) {
+            s->stop();
+        }
+        for (auto& l : loops) {
+            l->stop();
+        }
+    };
+    // What stands on the kernel's side between the wire and each bus's reads, once per bus at
+    // start-up: a notice where a setting works against exact framing (docs/rs485.md).
+    const auto kernel = rt::read_kernel_facts(rt.mode == config::RealtimeMode::Off ? std::vector<int>{} : rt.cpus);
     for (const auto& b : config->buses) {
+        for (const auto& finding : rt::judge(kernel, rt::read_port_facts(serial::tty_name(b.device)))) {
+            log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
+                       "bus " + b.name + ": " + finding.text);
+        }
         auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout());
         master::EngineCallbacks callbacks;
         callbacks.client_result = [svc = service.get()](std::uint64_t correlation, const master::Result& result) {
@@ -169,13 +202,32 @@ int run_main(int argc, char** argv) {
         auto loop = std::make_unique<bus::BusLoop>(b, callbacks, std::move(loop_options));
         if (auto started = loop->start(); !started) {
             log::error(started.error() + "; [realtime] mode is required");
+            stop_all();
             return kExitStartup;
         }
         log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
                     std::to_string(b.drives.size()) + " drives");
-        service->start(*loop);
+        service->start(*loop, [&rt, name = b.name] { service_thread_realtime(rt, name); });
         loops.push_back(std::move(loop));
         services.push_back(std::move(service));
+    }
+    // Locked once the shared memory is mapped and every thread runs, so that what is locked is
+    // what this process has, less iceoryx's management segment (see rt/memory.hpp).
+    if (rt.mode != config::RealtimeMode::Off && rt.lock_memory) {
+        const std::vector<std::string> left_out{ipc::Host::management_segment()};
+        auto locked = rt::lock_memory(left_out);
+        if (!locked) {
+            if (rt.mode == config::RealtimeMode::Required) {
+                log::error(locked.error() + "; [realtime] mode is required");
+                stop_all();
+                return kExitStartup;
+            }
+            log::warning(locked.error() + "; running best-effort");
+        } else {
+            log::info(fmt_mib("memory locked: ", locked->locked_kib) +
+                      fmt_mib(" (VmLck); left unlocked: the iceoryx management segment, ", locked->left_out_kib) +
+                      " mapped");
+        }
     }
     log::notice(std::string("drivebusd ") + DRIVEBUS_VERSION_STRING + " running: " + describe(*config));
     sd_notify(0, "READY=1");
@@ -216,12 +268,7 @@ int run_main(int argc, char** argv) {
     (void)loop.run();
 
     sd_notify(0, "STOPPING=1");
-    for (auto& s : services) {
-        s->stop();
-    }
-    for (auto& l : loops) {
-        l->stop();
-    }
+    stop_all();
     log::notice("stopped: " + status_line(loops, services));
     return 0;
 }

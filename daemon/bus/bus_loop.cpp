@@ -10,6 +10,7 @@
 #include <future>
 
 #include "log/log.hpp"
+#include "rt/memory.hpp"
 #include "rt/realtime.hpp"
 #include "serial/direction.hpp"
 #include "serial/port.hpp"
@@ -121,7 +122,7 @@ private:
         reopen_delay_ = {};
         reopen_at_.reset();
         limiter_.reset("open");
-        loop_.add(port_->fd(), [this] { on_readable(); });
+        loop_.add(port_->fd(), [this](sys::Readiness ready) { on_readable(ready); });
         engine_.line_up(sys::now());
     }
 
@@ -170,14 +171,20 @@ private:
         schedule_reopen(bus_.device.string() + ": gone", true);
     }
 
-    void on_readable() {
+    // A hang-up (the adapter unplugged, the tty vhangup()ed) is the line going down, at once:
+    // the descriptor stays ready for ever, and reading on would spin the bus thread. drive()
+    // then shows the bus down and arms the timer for the reopen.
+    void on_readable(sys::Readiness ready) {
+        if (ready.hung_up) {
+            lost(port_->device().string() + ": hung up");
+        }
         std::array<std::uint8_t, 512> buffer{};
         while (port_) {
             auto n = port_->read(buffer);
             const rtu::Instant t = sys::now();
             if (!n) {
                 lost(port_->device().string() + ": " + n.error().message());
-                return;
+                break;
             }
             if (*n == 0) {
                 break;
@@ -406,6 +413,9 @@ std::expected<void, std::string> BusLoop::start() {
                 log::warning("bus " + bus_.name + ": " + rt.error() + "; running best-effort");
             }
         }
+        // Resident before the memory is locked (which locks what is resident, and the rest of
+        // a stack only as it is touched): the loop's first deep call must not fault.
+        rt::prefault_stack();
         started.set_value({});
         impl_->run();
     });

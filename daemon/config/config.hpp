@@ -86,7 +86,7 @@ struct RealtimeConfig {
     RealtimeMode mode = RealtimeMode::BestEffort;
     int priority = 50;            // SCHED_FIFO priority of the bus threads, 1-99
     std::vector<int> cpus;        // CPU affinity of the bus threads; empty: any
-    bool lock_memory = true;      // mlockall(MCL_CURRENT | MCL_FUTURE)
+    bool lock_memory = true;      // lock what the threads use, once set up (rt/memory.hpp)
     // The bus thread's timer wakes it this long before each request is due and it spins on
     // the clock for the rest: a timer's wake-up is late by tens of microseconds. 0: off.
     Duration send_spin{};

@@ -489,11 +489,14 @@ std::optional<int> bus_served_elsewhere(const std::string& bus) {
     return std::nullopt;
 }
 
-void BusService::start(bus::BusLoop& loop) {
+void BusService::start(bus::BusLoop& loop, const std::function<void()>& on_thread) {
     impl_->loop = &loop;
     impl_->running = true;
-    impl_->intake = std::thread([this] {
+    impl_->intake = std::thread([this, on_thread] {
         (void)::pthread_setname_np(::pthread_self(), ("ipc " + impl_->bus.name).substr(0, 15).c_str());
+        if (on_thread) {
+            on_thread();
+        }
         impl_->run();
     });
 }

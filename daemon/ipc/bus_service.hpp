@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -38,8 +39,9 @@ public:
     void on_snapshot(const master::DriveSnapshot& snapshot);
     void on_result(std::uint64_t correlation, const master::Result& result);
 
-    // Starts taking requests for `loop` (which must outlive stop()).
-    void start(bus::BusLoop& loop);
+    // Starts taking requests for `loop` (which must outlive stop()). `on_thread` runs first on
+    // the new thread, which also expires the control leases: it sets its scheduling.
+    void start(bus::BusLoop& loop, const std::function<void()>& on_thread = {});
     void stop();
 
     [[nodiscard]] std::size_t drives_online() const;

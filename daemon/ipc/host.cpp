@@ -247,6 +247,10 @@ bool Host::embedded() const noexcept {
     return roudi_ != nullptr;
 }
 
+std::string Host::management_segment() {
+    return std::string("/dev/shm/") + iox::roudi::SHM_NAME;
+}
+
 std::string Host::describe() const {
     const double mib = static_cast<double>(bytes_of(layout_)) / (1024.0 * 1024.0);
     std::string text = embedded() ? fmt::format("embedded RouDi, {} segment(s), {:.1f} MiB of chunks",

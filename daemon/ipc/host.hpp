@@ -51,6 +51,10 @@ public:
 
     [[nodiscard]] bool embedded() const noexcept;
     [[nodiscard]] const Layout& layout() const noexcept { return layout_; }
+    // The file of iceoryx's management segment (/dev/shm/iceoryx_mgmt): RouDi's bookkeeping,
+    // hundreds of MiB mapped whether embedded or not, which drivebusd's threads do not need
+    // locked in memory.
+    [[nodiscard]] static std::string management_segment();
     // One line for the log: "embedded RouDi, 2 segments (8.4 MiB), groups drivebus/drivebus-control".
     [[nodiscard]] std::string describe() const;
 

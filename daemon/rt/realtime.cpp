@@ -2,20 +2,11 @@
 
 #include <pthread.h>
 #include <sched.h>
-#include <sys/mman.h>
 
-#include <cerrno>
+#include <algorithm>
 #include <cstring>
 
 namespace drivebus::rt {
-
-std::expected<void, std::string> lock_memory() {
-    if (::mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
-        return std::unexpected(std::string("mlockall: ") + std::strerror(errno) +
-                               " (needs CAP_IPC_LOCK or a memlock limit)");
-    }
-    return {};
-}
 
 std::expected<void, std::string> make_realtime(int priority, const std::vector<int>& cpus) {
     if (!cpus.empty()) {
@@ -35,6 +26,13 @@ std::expected<void, std::string> make_realtime(int priority, const std::vector<i
                                std::strerror(rc) + " (needs CAP_SYS_NICE or an rtprio limit)");
     }
     return {};
+}
+
+std::optional<int> service_priority(int bus_priority) {
+    if (bus_priority <= 1) {
+        return std::nullopt;
+    }
+    return std::max(bus_priority - kServiceBelowBus, 1);
 }
 
 }  // namespace drivebus::rt

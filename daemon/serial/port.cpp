@@ -1,6 +1,7 @@
 #include "serial/port.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>  // NOLINT(modernize-deprecated-headers): kill()
 #include <sys/file.h>
 #include <sys/ioctl.h>
@@ -261,15 +262,29 @@ std::expected<std::size_t, sys::SysError> Port::write(std::span<const std::uint8
     return static_cast<std::size_t>(*put);
 }
 
-std::expected<std::size_t, sys::SysError> Port::read(std::span<std::uint8_t> buffer) noexcept {
+std::expected<std::size_t, ReadError> Port::read(std::span<std::uint8_t> buffer) noexcept {
     auto got = sys::posix_call("read", [&] { return ::read(fd_.get(), buffer.data(), buffer.size()); });
     if (!got) {
         if (got.error().error == EAGAIN) {
             return 0U;
         }
-        return std::unexpected(got.error());
+        return std::unexpected(ReadError{got.error()});
+    }
+    if (*got == 0 && !buffer.empty() && hung_up()) {
+        return std::unexpected(ReadError{sys::SysError{"read", EIO}, true});
     }
     return static_cast<std::size_t>(*got);
+}
+
+// Asked only after a read of 0 bytes (nothing there, or hung up), not on every character.
+bool Port::hung_up() const noexcept {
+    pollfd p{fd_.get(), POLLIN, 0};
+    return sys::posix_call("poll", [&] { return ::poll(&p, 1, 0); }).value_or(0) > 0 &&
+           (p.revents & (POLLHUP | POLLERR)) != 0;
+}
+
+std::string ReadError::message() const {
+    return hung_up ? "hung up (the device went away)" : sys.message();
 }
 
 void Port::flush() noexcept {

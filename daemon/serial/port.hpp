@@ -32,6 +32,15 @@ struct PortError {
     [[nodiscard]] bool device_gone() const noexcept;
 };
 
+// Why a read failed. A tty whose device went away (an unplugged USB adapter, vhangup()) keeps
+// answering read() with 0 bytes, which a raw line with VMIN = 0 also returns when nothing has
+// arrived: the poll state tells the two apart, and a hang-up becomes this error, never 0 bytes.
+struct ReadError {
+    sys::SysError sys;     // the failed call ({"read", EIO} for a hang-up, as the tty's write() says)
+    bool hung_up = false;  // read() returned 0 and the tty reports POLLHUP
+    [[nodiscard]] std::string message() const;
+};
+
 // The ioctl seam the port's optional features go through, so that tests can fake a UART.
 class UartControl {
 public:
@@ -66,9 +75,10 @@ public:
     // What tuning was applied or not, one line each, for the log.
     [[nodiscard]] const std::vector<std::string>& tuning() const noexcept { return tuning_; }
 
-    // Non-blocking write and read; EINTR retried, EAGAIN reported as 0 bytes.
+    // Non-blocking write and read; EINTR retried, EAGAIN (or nothing to read) reported as 0
+    // bytes; a hang-up is an error (ReadError::hung_up).
     [[nodiscard]] std::expected<std::size_t, sys::SysError> write(std::span<const std::uint8_t> bytes) noexcept;
-    [[nodiscard]] std::expected<std::size_t, sys::SysError> read(std::span<std::uint8_t> buffer) noexcept;
+    [[nodiscard]] std::expected<std::size_t, ReadError> read(std::span<std::uint8_t> buffer) noexcept;
     // Drops anything unread or unsent (tcflush), e.g. after reopening.
     void flush() noexcept;
     // Bytes received and waiting to be read (TIOCINQ); 0 when the driver cannot tell.
@@ -77,6 +87,7 @@ public:
 private:
     Port() = default;
     void close() noexcept;
+    [[nodiscard]] bool hung_up() const noexcept;
     sys::UniqueFd fd_;
     std::filesystem::path device_;
     std::filesystem::path lock_file_;  // removed on close when we made it

@@ -18,13 +18,17 @@ EventLoop::EventLoop() {
 }
 
 void EventLoop::add(int fd, std::function<void()> on_ready) {
+    add(fd, [f = std::move(on_ready)](Readiness) { f(); });
+}
+
+void EventLoop::add(int fd, std::function<void(Readiness)> on_ready) {
     epoll_event ev{};
     ev.events = EPOLLIN;
     ev.data.fd = fd;
     if (auto ok = posix_call("epoll_ctl", [&] { return ::epoll_ctl(epoll_.get(), EPOLL_CTL_ADD, fd, &ev); }); !ok) {
         throw std::runtime_error(ok.error().message());
     }
-    handlers_[fd] = std::make_shared<std::function<void()>>(std::move(on_ready));
+    handlers_[fd] = std::make_shared<std::function<void(Readiness)>>(std::move(on_ready));
 }
 
 void EventLoop::remove(int fd) {
@@ -43,10 +47,11 @@ std::expected<void, SysError> EventLoop::run() {
             return std::unexpected(n.error());
         }
         for (int i = 0; i < *n && running_; ++i) {
-            const auto it = handlers_.find(events[static_cast<std::size_t>(i)].data.fd);
+            const epoll_event& event = events[static_cast<std::size_t>(i)];
+            const auto it = handlers_.find(event.data.fd);
             if (it != handlers_.end()) {
                 const auto handler = it->second;  // a handler may remove itself
-                (*handler)();
+                (*handler)(Readiness{(event.events & EPOLLIN) != 0, (event.events & (EPOLLHUP | EPOLLERR)) != 0});
             }
         }
     }

@@ -10,12 +10,22 @@
 
 namespace drivebus::sys {
 
+// What epoll said about a descriptor. A tty whose device went away (an unplugged USB adapter,
+// vhangup()) reports EPOLLHUP and EPOLLERR on every wait from then on, along with EPOLLIN.
+struct Readiness {
+    bool readable = false;
+    bool hung_up = false;  // EPOLLHUP or EPOLLERR
+};
+
 class EventLoop {
 public:
     EventLoop();
 
     // Calls `on_ready` whenever `fd` is readable (or hung up). The loop does not own `fd`.
     void add(int fd, std::function<void()> on_ready);
+    // The same, telling the callback which: a descriptor that has hung up stays ready, so its
+    // owner must close it rather than read on.
+    void add(int fd, std::function<void(Readiness)> on_ready);
     void remove(int fd);
     // Runs until stop(); returns the error that ended it, if any.
     std::expected<void, SysError> run();
@@ -23,7 +33,7 @@ public:
 
 private:
     UniqueFd epoll_;
-    std::map<int, std::shared_ptr<std::function<void()>>> handlers_;
+    std::map<int, std::shared_ptr<std::function<void(Readiness)>>> handlers_;
     bool running_ = false;
 };
 

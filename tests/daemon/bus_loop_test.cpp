@@ -1,7 +1,11 @@
 // The master's bus thread on a real pty against drivebus-sim, with real time, real threads
 // and the simulator's fault injection. Every wait is a condition with a deadline.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/ioctl.h>
 
+#include <cstring>
+#include <filesystem>
 #include <map>
 #include <mutex>
 
@@ -258,6 +262,63 @@ TEST_F(BusLoopTest, DeviceVanishesAndComesBack) {
     EXPECT_GE(loop->status().counters.line_down, 1U);
     loop->stop();
     sim = std::move(again);
+}
+
+// An unplugged USB adapter hangs its tty up: read() returns 0 and poll() says POLLHUP for
+// ever after, unlike the closed pty master above (EIO). The bus goes down at once, its thread
+// does not spin on the descriptor that stays ready, and the line comes back with the device.
+// The poll period is an hour, so no write can be what notices the loss.
+TEST_F(BusLoopTest, HangUpIsLineDownWithoutSpinning) {
+    namespace fs = std::filesystem;
+    using std::chrono::steady_clock;
+    config.drives.clear();
+    auto fan = drive("fan", 2, atv58);
+    fan.polls.push_back(poll(*atv58, {"W450"}, std::chrono::hours(1)));
+    config.drives.push_back(fan);
+    start();
+    ASSERT_TRUE(wait_until([&] { return recorder.count("fan") >= 1; }, 10s));
+
+    // The device goes away: its path with it (until renamed back), and its tty hung up, as the
+    // USB serial driver does on unplugging (vhangup() needs CAP_SYS_ADMIN).
+    const fs::path link = sim->link();
+    const fs::path away = link.string() + ".away";
+    const fs::path tty = fs::read_symlink(link);
+    fs::rename(link, away);
+    {
+        const sys::UniqueFd holder(::open(tty.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC));
+        ASSERT_TRUE(holder.valid()) << tty << ": " << std::strerror(errno);
+        if (::ioctl(holder.get(), TIOCVHANGUP) != 0) {
+            fs::rename(away, link);
+            GTEST_SKIP() << "TIOCVHANGUP needs CAP_SYS_ADMIN: " << std::strerror(errno);
+        }
+    }
+    ASSERT_TRUE(wait_until([&] { return !loop->up(); }, 10s)) << "the bus did not notice the hang-up";
+    EXPECT_EQ(loop->status().counters.line_down, 1U);
+
+    // Down, the loop wakes for its liveness tick (twice a second) and its reopen attempts: a
+    // few times a second, where a loop reading a hung-up tty goes round thousands of times.
+    const std::uint64_t h0 = loop->heartbeat();
+    const auto t0 = steady_clock::now();
+    ASSERT_TRUE(wait_until([&] { return steady_clock::now() - t0 >= 1s && loop->heartbeat() - h0 >= 2; }, 10s))
+        << "the loop stopped going round";
+    const double seconds = std::chrono::duration<double>(steady_clock::now() - t0).count();
+    const std::uint64_t rounds = loop->heartbeat() - h0;
+    EXPECT_LE(static_cast<double>(rounds), 20.0 + 20.0 * seconds) << rounds << " rounds in " << seconds << " s";
+    EXPECT_FALSE(loop->up()) << "up while the device was away";
+
+    const std::size_t before = recorder.count("fan");
+    fs::rename(away, link);
+    ASSERT_TRUE(wait_until([&] { return loop->up(); }, 15s)) << "the bus did not reopen";
+    // Reopened, the line polls at once: the value comes through the same pty again.
+    EXPECT_TRUE(wait_until(
+        [&] {
+            const auto f = recorder.latest("fan");
+            return recorder.count("fan") > before && f && f->registers.contains(450) && f->registers.at(450).valid;
+        },
+        10s));
+    EXPECT_EQ(recorder.latest("fan")->registers.at(450).value, kFanValue(0));
+    EXPECT_EQ(loop->status().counters.line_down, 1U);
+    EXPECT_EQ(recorder.wrong_values(), 0U);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """`systemd-analyze security --offline=yes` of a drivebus unit: fail above a maximum exposure,
-and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlockall, the
+and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlock, the
 serial and GPIO devices, /tmp and /dev/shm for iceoryx), or what the RouDi of
 drivebus-roudi.service needs (/tmp, /dev/shm, the host's users and groups, local sockets), so
 the score cannot be bought by breaking the service.
@@ -77,7 +77,12 @@ def needs(unit):
     for group in ("@resources", "@memlock"):
         for value in s.get("SystemCallFilter", []):
             if value.startswith("~") and group in value[1:].split():
-                problems.append(f"SystemCallFilter= denies {group} (sched_setscheduler, mlockall)")
+                problems.append(f"SystemCallFilter= denies {group} (sched_setscheduler, mlock)")
+    # lock_memory finds the heap and stack pages in use with mincore(), which @system-service
+    # leaves out: an allow-list must name it.
+    allow = [v for v in s.get("SystemCallFilter", []) if v and not v.startswith("~")]
+    if allow and not any(w in ("mincore", "@known") for v in allow for w in v.split()):
+        problems.append("SystemCallFilter= allows no mincore (lock_memory)")
     if last("ProtectSystem") == "strict":
         rw = words("ReadWritePaths")
         for path in ("/tmp", "/dev/shm"):

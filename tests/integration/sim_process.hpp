@@ -58,6 +58,7 @@ public:
     Child& operator=(Child&&) = delete;
     int stop();
     [[nodiscard]] std::string output() const;
+    [[nodiscard]] int pid() const noexcept { return pid_; }
 
 private:
     std::filesystem::path dir_;

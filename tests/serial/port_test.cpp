@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -146,6 +147,25 @@ TEST_F(PortTest, WritesAndReadsNonBlocking) {
     ASSERT_TRUE(got.has_value()) << got.error().message();
     EXPECT_EQ(std::vector<std::uint8_t>(buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(*got)),
               (std::vector<std::uint8_t>{0x01, 0xFF, 0xFF}));
+}
+
+// An unplugged USB adapter hangs its tty up, and read() then returns 0 bytes for ever: that is
+// an error the bus acts on, never "nothing yet", which a raw line with VMIN = 0 also returns.
+TEST_F(PortTest, AHangUpIsAnErrorNotZeroBytes) {
+    auto port = Port::open(options);
+    ASSERT_TRUE(port.has_value()) << port.error().message;
+    std::array<std::uint8_t, 64> buffer{};
+    auto nothing = port->read(buffer);
+    ASSERT_TRUE(nothing.has_value()) << nothing.error().message();
+    EXPECT_EQ(*nothing, 0U);
+    if (::ioctl(pty.slave.get(), TIOCVHANGUP) != 0) {
+        GTEST_SKIP() << "TIOCVHANGUP needs CAP_SYS_ADMIN: " << std::strerror(errno);
+    }
+    auto gone = port->read(buffer);
+    ASSERT_FALSE(gone.has_value()) << "a hang-up read as " << *gone << " bytes";
+    EXPECT_TRUE(gone.error().hung_up);
+    EXPECT_EQ(gone.error().sys.error, EIO);
+    EXPECT_EQ(gone.error().message(), "hung up (the device went away)");
 }
 
 TEST_F(PortTest, ASecondOpenIsBusy) {
