@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "drivebus/shm.hpp"
+
 #include <unistd.h>
 #include "one_line_error.hpp"
 #include "scratch_dir.hpp"
@@ -841,6 +843,113 @@ TEST(Read, IndirectWithinTheBlock) {
     const auto poll = parsed(with_poll("indirect = true")).buses.at(0).drives.at(0).polls.at(0);
     EXPECT_TRUE(poll.indirect);
     EXPECT_EQ(addresses(poll), (std::vector<std::uint16_t>{0xFD00, 0xFD01}));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation: what the shared-memory payloads (drivebus/shm.hpp) can carry. Each limit is taken
+// from shm.hpp: at the limit accepted, one past it refused with a line naming key and limit.
+
+// A name of `n` characters.
+std::string name_of(std::size_t n) {
+    return std::string(n, 'a');
+}
+std::string limit_text(std::size_t field_size) {
+    return "more than the " + std::to_string(field_size - 1);
+}
+
+TEST(ShmLimits, BusName) {
+    const auto most = shm::kNameSize - 1;
+    EXPECT_EQ(parsed(edited(kValid, "\"line1\"", '"' + name_of(most) + '"')).buses.at(0).name.size(), most);
+    EXPECT_TRUE(rejected(edited(kValid, "\"line1\"", '"' + name_of(most + 1) + '"'),
+                         {"name '" + name_of(most + 1) + "' has " + std::to_string(most + 1) + " characters",
+                          limit_text(shm::kNameSize), "a bus name in shared memory"}));
+}
+
+TEST(ShmLimits, DriveName) {
+    const auto most = shm::kNameSize - 1;
+    EXPECT_EQ(parsed(edited(kValid, "\"pump\"", '"' + name_of(most) + '"')).buses.at(0).drives.at(0).name.size(),
+              most);
+    EXPECT_TRUE(rejected(edited(kValid, "\"pump\"", '"' + name_of(most + 1) + '"'),
+                         {"bus 'line1' drive", "name '" + name_of(most + 1) + "'", limit_text(shm::kNameSize),
+                          "a drive name in shared memory"}));
+}
+
+TEST(ShmLimits, ProfileType) {
+    const ScratchDir dir;
+    const auto most = shm::kProfileSize - 1;
+    for (const auto n : {most, most + 1}) {
+        dir.write(name_of(n) + ".toml", edited(kWriteOnlyProfile, "\"wo\"", '"' + name_of(n) + '"'));
+    }
+    const auto typed = [&](std::size_t n) { return edited(wo_config(R"(["ST"])"), "\"wo\"", '"' + name_of(n) + '"'); };
+    EXPECT_EQ(parsed(typed(most), LoadOptions{dir.path()}).buses.at(0).drives.at(0).profile->type.size(), most);
+    EXPECT_TRUE(rejected(typed(most + 1),
+                         {"drive 'pump': profile '" + name_of(most + 1) + "'", limit_text(shm::kProfileSize)},
+                         LoadOptions{dir.path()}));
+}
+
+TEST(ShmLimits, Device) {
+    const std::string prefix = "/dev/";
+    const auto most = shm::kDeviceSize - 1;
+    const auto device = [&](std::size_t n) { return prefix + name_of(n - prefix.size()); };
+    EXPECT_EQ(parsed(edited(kValid, "/dev/ttyUSB0", device(most))).buses.at(0).device.string().size(), most);
+    EXPECT_TRUE(rejected(edited(kValid, "/dev/ttyUSB0", device(most + 1)),
+                         {"bus 'line1': device '" + device(most + 1) + "'", limit_text(shm::kDeviceSize)}));
+}
+
+// kValid with `n` drives on its bus, at addresses 1..n.
+std::string with_drives(std::size_t n) {
+    std::string text(kValid);
+    for (std::size_t i = 2; i <= n; ++i) {
+        text += "  [[bus.drive]]\n  name = \"d" + std::to_string(i) + "\"\n  address = " + std::to_string(i) +
+                "\n  profile = \"atv21\"\n";
+    }
+    return text;
+}
+
+TEST(ShmLimits, DrivesPerBus) {
+    EXPECT_EQ(parsed(with_drives(shm::kMaxDrivesPerBus)).buses.at(0).drives.size(), shm::kMaxDrivesPerBus);
+    EXPECT_TRUE(rejected(with_drives(shm::kMaxDrivesPerBus + 1),
+                         {"bus 'line1': " + std::to_string(shm::kMaxDrivesPerBus + 1) + " drives ([[bus.drive]])",
+                          "more than the " + std::to_string(shm::kMaxDrivesPerBus)}));
+}
+
+// kValid whose drive has a second poll group "slow": together they read FD00, FD01 (the first
+// group) and `extra` numbered registers (0x7000 up), `repeated` of them read by both groups.
+std::string polling_in_two_groups(std::size_t extra, std::size_t repeated) {
+    std::string first = R"(["FD00", "FD01")";
+    for (std::size_t i = 0; i < repeated; ++i) {
+        first += ", " + std::to_string(0x7000 + i);
+    }
+    std::string second = "[";
+    for (std::size_t i = 0; i < extra; ++i) {
+        second += (i == 0 ? "" : ", ") + std::to_string(0x7000 + i);
+    }
+    second += "]";
+    return edited(kValid, R"(["FD00", "FD01"])", first + "]") +
+           "\n    [[bus.drive.poll]]\n    name = \"slow\"\n    registers = " + second + "\n    period = \"1s\"\n";
+}
+
+TEST(ShmLimits, RegistersPerSnapshotOverAllPollGroups) {
+    const auto most = shm::kMaxSnapshotRegisters;
+    // A register in both groups is one entry of the snapshot.
+    const auto fit = parsed(polling_in_two_groups(most - 2, 10)).buses.at(0).drives.at(0);
+    ASSERT_EQ(fit.polls.size(), 2U);
+    EXPECT_EQ(fit.polls[0].registers.size() + fit.polls[1].registers.size(), most + 10);
+    EXPECT_TRUE(rejected(polling_in_two_groups(most - 1, 10),
+                         {"bus 'line1' drive 'pump' poll 'slow': registers",
+                          "read " + std::to_string(most + 1) + " different registers",
+                          "more than the " + std::to_string(most) + " a snapshot"}));
+}
+
+TEST(ShmLimits, GroupNames) {
+    const auto most = shm::kGroupSize - 1;
+    const std::string bus(kValid);
+    for (const std::string key : {"watch_group", "control_group", "daemon_group"}) {
+        EXPECT_EQ(parsed("[ipc]\n" + key + " = \"" + name_of(most) + "\"\n" + bus).ipc.max_clients, 32U) << key;
+        EXPECT_TRUE(rejected("[ipc]\n" + key + " = \"" + name_of(most + 1) + "\"\n" + bus,
+                             {key + " '" + name_of(most + 1) + "'", limit_text(shm::kGroupSize)}))
+            << key;
+    }
 }
 
 // ---- [ipc] and the control lease ----

@@ -11,6 +11,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "drivebus/shm.hpp"
 #include "sim_process.hpp"
 #include "sys/posix.hpp"
 
@@ -50,6 +51,15 @@ std::string with(std::string_view from, std::string_view to) {
     }
     text.replace(at, from.size(), to);
     return text;
+}
+
+// "28672, 28673, ...": `n` register numbers no profile names.
+std::string numbered(std::size_t n) {
+    std::string out;
+    for (std::size_t i = 0; i < n; ++i) {
+        out += (i == 0 ? "" : ", ") + std::to_string(0x7000 + i);
+    }
+    return out;
 }
 
 class DrivebusdCli : public ::testing::Test {
@@ -96,6 +106,11 @@ TEST_F(DrivebusdCli, BadConfigurationsAreOneLineAndExit78) {
         {with("parity = \"none\"", "parity = \"none\"\nretries = 99"), "retries"},
         {with("mode = \"off\"", "mode = \"off\"\npriority = 150"), "priority"},
         {with("name = \"line1\"", "name = \"Line 1\""), "Line 1"},
+        // What the shared memory cannot carry (drivebus/shm.hpp).
+        {with("name = \"pump\"", "name = \"" + std::string(shm::kNameSize, 'p') + "\""),
+         "than the " + std::to_string(shm::kNameSize - 1)},
+        {with("registers = [\"FD00\"]", "registers = [" + numbered(shm::kMaxSnapshotRegisters + 1) + "]"),
+         "than the " + std::to_string(shm::kMaxSnapshotRegisters)},
         {"this is not toml", "drivebusd.toml"},
         {"", "bus"},
     };
