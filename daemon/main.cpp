@@ -132,6 +132,9 @@ int run_main(int argc, char** argv) {
         }
     }
     log::notice("shared memory: " + (*ipc_host)->describe());
+    for (const auto& warning : (*ipc_host)->warnings()) {
+        log::warning("shared memory: " + warning);
+    }
 
     std::vector<std::unique_ptr<ipc::BusService>> services;
     std::vector<std::unique_ptr<bus::BusLoop>> loops;

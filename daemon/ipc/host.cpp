@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <chrono>
 #include <cstdlib>
+#include <optional>
 #include <thread>
 #include <fmt/format.h>
 
@@ -21,6 +22,7 @@
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
 #include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
+#include "ipc/seal.hpp"
 #include "sys/posix.hpp"
 
 namespace drivebus::ipc {
@@ -118,14 +120,30 @@ void on_iceoryx_error(const iox::Error error, const std::function<void()>& callb
 
 }  // namespace
 
+// The segments of a grouped layout, each writable by its writer group only (seal.hpp).
+std::expected<void, std::string> seal_all(const Layout& layout) {
+    if (!layout.grouped) {
+        return {};
+    }
+    for (const auto& segment : layout.segments) {
+        if (auto sealed = seal_segment(segment); !sealed) {
+            return std::unexpected(fmt::format("could not make segment {} writable by group {} only: {}",
+                                               segment_path(segment), segment.writer_group, sealed.error()));
+        }
+    }
+    return {};
+}
+
+// The components create the segments; RouDi, once constructed, answers on its socket.
 struct Host::Embedded {
-    explicit Embedded(const iox::RouDiConfig_t& config)
-        : components(config),
-          roudi(components.rouDiMemoryManager, components.portManager,
-                iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
-                                                          /*killProcessesInDestructor=*/false}) {}
+    explicit Embedded(const iox::RouDiConfig_t& config) : components(config) {}
+    void serve() {
+        roudi.emplace(components.rouDiMemoryManager, components.portManager,
+                      iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
+                                                                /*killProcessesInDestructor=*/false});
+    }
     iox::roudi::IceOryxRouDiComponents components;
-    iox::roudi::RouDi roudi;
+    std::optional<iox::roudi::RouDi> roudi;
 };
 
 std::expected<Layout, std::string> plan_layout(const config::Config& config) {
@@ -224,6 +242,11 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
         }
         roudi_config.iox::config::RouDiConfig::setDefaults();
         host->roudi_ = std::make_unique<Embedded>(roudi_config);
+        // Before RouDi answers anybody, so that no client has opened a segment yet.
+        if (auto sealed = seal_all(host->layout_); !sealed) {
+            return std::unexpected(sealed.error());
+        }
+        host->roudi_->serve();
         // RouDi's thread makes its socket under a temporary process-wide umask; a runtime
         // started meanwhile in this process does the same, and the two can leave the socket
         // without group write (clients then get EACCES). Wait for it, then set its mode.
@@ -235,6 +258,13 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
                                    iox::roudi::IPC_CHANNEL_ROUDI_NAME;
         if (::chmod(socket.c_str(), 0660) != 0) {
             return std::unexpected("the embedded RouDi's socket " + socket + " did not appear");
+        }
+    }
+    if (running) {
+        // The system RouDi made the segments; drivebusd's user owns them when the unit runs it
+        // as that user (drivebus-roudi.service), and then can seal them.
+        if (auto sealed = seal_all(host->layout_); !sealed) {
+            host->warnings_.push_back(sealed.error() + "; run the RouDi as drivebusd's user (drivebus-roudi.service)");
         }
     }
     iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));

@@ -53,11 +53,14 @@ public:
     [[nodiscard]] const Layout& layout() const noexcept { return layout_; }
     // One line for the log: "embedded RouDi, 2 segments (8.4 MiB), groups drivebus/drivebus-control".
     [[nodiscard]] std::string describe() const;
+    // What start() could not do and drivebusd runs without, one line each, for the log.
+    [[nodiscard]] const std::vector<std::string>& warnings() const noexcept { return warnings_; }
 
 private:
     struct Embedded;
     Host() = default;
     Layout layout_;
+    std::vector<std::string> warnings_;
     std::unique_ptr<Embedded> roudi_;
 };
 

@@ -162,6 +162,32 @@ TEST_F(Access, TheSharedMemoryRefusesAViewerThatAsksIcoryxDirectly) {
     EXPECT_EQ(writes.find("0xFA51=888"), std::string::npos) << writes;
 }
 
+// The segments are files in /dev/shm that a process may try to open(2) itself, around
+// iceoryx: the publications segment (named after its writer, the daemon's group) and the
+// request segment (named after the control group).
+TEST_F(Access, AViewerCannotOpenASegmentForWriting) {
+    const std::string publications = std::string("/dev/shm/") + kDaemonGroup;
+    const std::string requests = std::string("/dev/shm/") + kControl;
+    const auto open_as = [&](const char* user, const std::string& path, const char* mode) {
+        return run_program(as(user, {OPEN_FILE_PATH, path, mode}));
+    };
+    for (const auto& path : {publications, requests}) {
+        const auto [status, out] = open_as(kViewer, path, "rw");
+        EXPECT_EQ(status, 1) << path << ": " << out;
+        EXPECT_EQ(out, "EACCES\n") << path;
+    }
+    // The viewer still reads the publications; the operator writes requests but not publications.
+    EXPECT_EQ(open_as(kViewer, publications, "r").second, "opened\n");
+    EXPECT_EQ(open_as(kOperator, requests, "rw").second, "opened\n");
+    EXPECT_EQ(open_as(kOperator, publications, "rw").second, "EACCES\n");
+    // And through iceoryx, all goes on as before.
+    const auto [watched, watch_out] = client(kViewer, {"snapshots", "2"});
+    EXPECT_EQ(watched, 0) << watch_out;
+    const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "654"});
+    EXPECT_EQ(wrote, 0) << write_out;
+    EXPECT_EQ(sim_->command("get 1 FA51"), "ok 654");
+}
+
 TEST_F(Access, AnotherEffectiveGroupIsToldWhichOneToUse) {
     // RouDi could not answer this process at all; the library says so at once.
     // In the watch group, but as a supplementary group only.
