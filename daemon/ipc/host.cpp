@@ -22,6 +22,7 @@
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
 #include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
+#include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
 #include "ipc/seal.hpp"
 #include "sys/posix.hpp"
 
@@ -135,6 +136,10 @@ std::expected<void, std::string> seal_all(const Layout& layout) {
 }
 
 // The components create the segments; RouDi, once constructed, answers on its socket.
+// This process's runtime is a member too, declared last: it goes first, and says goodbye to a
+// RouDi that still listens. (initRuntime()'s runtime is a static that outlives every object
+// of main(); at exit it would send its TERMINATION to a RouDi already gone, and iceoryx logs
+// that as two errors on every clean stop.)
 struct Host::Embedded {
     explicit Embedded(const iox::RouDiConfig_t& config) : components(config) {}
     void serve() {
@@ -144,6 +149,7 @@ struct Host::Embedded {
     }
     iox::roudi::IceOryxRouDiComponents components;
     std::optional<iox::roudi::RouDi> roudi;
+    std::optional<iox::runtime::PoshRuntimeSingleProcess> runtime;
 };
 
 std::expected<Layout, std::string> plan_layout(const config::Config& config) {
@@ -267,7 +273,12 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
             host->warnings_.push_back(sealed.error() + "; run the RouDi as drivebusd's user (drivebus-roudi.service)");
         }
     }
-    iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+    const iox::RuntimeName_t runtime_name(iox::cxx::TruncateToCapacity, name.c_str());
+    if (host->roudi_) {
+        host->roudi_->runtime.emplace(runtime_name);
+    } else {
+        iox::runtime::PoshRuntime::initRuntime(runtime_name);
+    }
     return host;
 }
 

@@ -168,5 +168,23 @@ TEST_F(DrivebusdCli, TellsSystemdItIsReadyAndFeedsTheWatchdog) {
     EXPECT_EQ(daemon.stop(), 0) << daemon.output();
 }
 
+// iceoryx's own error lines would hide real ones: a clean stop, with a client that came and
+// went, prints none.
+TEST_F(DrivebusdCli, ACleanStopLogsNoError) {
+    SimProcess sim({"--drive", "1:atv21"});
+    std::ofstream(dir / "run.toml") << with("/dev/ttyDOESNOTEXIST", sim.link().string());
+    Child daemon({DRIVEBUSD_PATH, "--config", (dir / "run.toml").string()});
+    ASSERT_TRUE(wait_until([&] { return daemon.output().find("running:") != std::string::npos; }, 10s))
+        << daemon.output();
+    const auto [listed, list_out] = run_program({DRIVEBUSCTL_PATH, "--bus", "line1", "list"});
+    EXPECT_EQ(listed, 0) << list_out;
+    EXPECT_EQ(daemon.stop(), 0) << daemon.output();
+    const auto out = daemon.output();
+    EXPECT_NE(out.find("stopped:"), std::string::npos) << out;
+    for (const char* noise : {"Error", "error", "fatal"}) {
+        EXPECT_EQ(out.find(noise), std::string::npos) << noise << " in:\n" << out;
+    }
+}
+
 }  // namespace
 }  // namespace drivebus::test
