@@ -135,6 +135,9 @@ int run_main(int argc, char** argv) {
     for (const auto& warning : (*ipc_host)->warnings()) {
         log::warning("shared memory: " + warning);
     }
+    for (const auto& note : (*ipc_host)->notes()) {
+        log::notice("shared memory: " + note);
+    }
 
     std::vector<std::unique_ptr<ipc::BusService>> services;
     std::vector<std::unique_ptr<bus::BusLoop>> loops;

@@ -23,6 +23,7 @@
 #include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
+#include "ipc/leftovers.hpp"
 #include "ipc/seal.hpp"
 #include "sys/posix.hpp"
 
@@ -235,6 +236,13 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
     case config::RouDiMode::Auto: break;
     }
     if (!running) {
+        std::vector<std::string> segments;
+        for (const auto& segment : host->layout_.segments) {
+            segments.push_back(segment.writer_group);
+        }
+        if (auto stale = stale_roudi_files(segments)) {
+            return std::unexpected(*stale);
+        }
         iox::RouDiConfig_t roudi_config;
         for (const auto& segment : host->layout_.segments) {
             iox::mepoo::MePooConfig pools;
@@ -272,6 +280,14 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
         if (auto sealed = seal_all(host->layout_); !sealed) {
             host->warnings_.push_back(sealed.error() + "; run the RouDi as drivebusd's user (drivebus-roudi.service)");
         }
+    }
+    if (const auto removed = remove_stale_client_sockets(); !removed.empty()) {
+        std::string list;
+        for (std::size_t i = 0; i < removed.size() && i < 5; ++i) {
+            list += " " + removed[i];
+        }
+        host->notes_.push_back(fmt::format("removed the sockets of {} iceoryx client(s) that were killed:{}{}",
+                                           removed.size(), list, removed.size() > 5 ? " ..." : ""));
     }
     const iox::RuntimeName_t runtime_name(iox::cxx::TruncateToCapacity, name.c_str());
     if (host->roudi_) {

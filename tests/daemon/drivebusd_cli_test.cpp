@@ -7,8 +7,11 @@
 #include <filesystem>
 #include <fstream>
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "drivebus/shm.hpp"
@@ -183,6 +186,63 @@ TEST_F(DrivebusdCli, ACleanStopLogsNoError) {
     EXPECT_NE(out.find("stopped:"), std::string::npos) << out;
     for (const char* noise : {"Error", "error", "fatal"}) {
         EXPECT_EQ(out.find(noise), std::string::npos) << noise << " in:\n" << out;
+    }
+}
+
+// A socket file at `path`, as an iceoryx runtime leaves it (the socket itself closed).
+void make_socket_file(const fs::path& path) {
+    sys::UniqueFd fd(::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0));
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+    ASSERT_EQ(::bind(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0) << path;
+}
+
+// The pid of a process that has ended.
+pid_t gone_pid() {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        ::_exit(0);
+    }
+    ::waitpid(pid, nullptr, 0);
+    return pid;
+}
+
+// A killed client leaves /tmp/<name>-<pid> and its lock. The next drivebusd removes those
+// whose process is gone and whose lock is free, and leaves the others.
+TEST_F(DrivebusdCli, SocketsOfKilledClientsAreRemovedAtStart) {
+    const fs::path tmp = "/tmp";
+    const auto tag = "dbcli" + std::to_string(::getpid());
+    const fs::path stale = tmp / (tag + "_stale-" + std::to_string(gone_pid()));
+    const fs::path held = tmp / (tag + "_held-" + std::to_string(gone_pid()));  // a live runtime's lock
+    const fs::path live = tmp / (tag + "_live-" + std::to_string(::getpid()));
+    std::vector<sys::UniqueFd> locks;
+    for (const auto& path : {stale, held, live}) {
+        make_socket_file(path);
+        locks.emplace_back(::open((path.string() + ".lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600));
+    }
+    ASSERT_EQ(::flock(locks[1].get(), LOCK_EX | LOCK_NB), 0);
+    ASSERT_EQ(::flock(locks[2].get(), LOCK_EX | LOCK_NB), 0);
+    locks[0] = sys::UniqueFd();  // the killed client's lock: closed, nobody holds it
+
+    SimProcess sim({"--drive", "1:atv21"});
+    std::ofstream(dir / "run.toml") << with("/dev/ttyDOESNOTEXIST", sim.link().string());
+    Child daemon({DRIVEBUSD_PATH, "--config", (dir / "run.toml").string()});
+    ASSERT_TRUE(wait_until([&] { return daemon.output().find("running:") != std::string::npos; }, 10s))
+        << daemon.output();
+    EXPECT_FALSE(fs::exists(stale));
+    EXPECT_FALSE(fs::exists(stale.string() + ".lock"));
+    EXPECT_NE(daemon.output().find("removed the sockets of"), std::string::npos) << daemon.output();
+    EXPECT_NE(daemon.output().find(stale.string()), std::string::npos) << daemon.output();
+    for (const auto& kept : {held, live}) {
+        EXPECT_TRUE(fs::exists(kept)) << kept;
+        EXPECT_TRUE(fs::exists(kept.string() + ".lock")) << kept;
+    }
+    EXPECT_EQ(daemon.stop(), 0) << daemon.output();
+    for (const auto& path : {stale, held, live}) {
+        std::error_code ec;
+        fs::remove(path, ec);
+        fs::remove(path.string() + ".lock", ec);
     }
 }
 

@@ -215,5 +215,47 @@ TEST_F(Access, AnOperatorWatchesAndCommands) {
     EXPECT_EQ(sim_->command("get 1 FA51"), "ok 321");
 }
 
+// An iox-roudi run as root and killed leaves its lock, socket and segments, root's, in the
+// sticky /tmp and /dev/shm, where drivebusd's user may not replace them. drivebusd says in
+// one line what to remove, instead of iceoryx's raw error.
+TEST(StaleRouDi, TheDaemonSaysWhatToRemove) {
+    if (::geteuid() != 0) {
+        GTEST_SKIP() << "needs root to leave root's files and run drivebusd as another user";
+    }
+    for (const auto* g : {kWatch, kControl, kDaemonGroup}) {
+        ensure_group(g);
+    }
+    ensure_user(kDaemonUser, kDaemonGroup);
+    ASSERT_FALSE(roudi_file_exists()) << "a RouDi runs already";
+    const std::vector<fs::path> left = {"/tmp/iox-unique-roudi.lock", "/dev/shm/iceoryx_mgmt"};
+    for (const auto& path : left) {
+        ASSERT_FALSE(fs::exists(path)) << path << " is there already";
+        std::ofstream{path};
+        fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write);
+    }
+    const auto dir = fs::temp_directory_path() / ("drivebus-stale-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    fs::permissions(dir, fs::perms::all);
+    const auto config = dir / "drivebusd.toml";
+    std::ofstream(config) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
+                          << "[ipc]\nroudi = \"embedded\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
+                          << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
+                          << "[[bus]]\nname = \"stale\"\ndevice = \"/dev/ttyDOESNOTEXIST\"\nparity = \"none\"\n"
+                             "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n";
+    fs::permissions(config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
+    const auto [status, out] = run_program(
+        as(kDaemonUser, {DRIVEBUSD_PATH, "--config", config.string(), "--profile-dir", DRIVEBUS_PROFILE_DIR}));
+    std::error_code ec;
+    for (const auto& path : left) {
+        fs::remove(path, ec);
+    }
+    fs::remove_all(dir, ec);
+    EXPECT_EQ(status, 1) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_NE(out.find("a RouDi of user root left files"), std::string::npos) << out;
+    EXPECT_NE(out.find("sudo rm /tmp/iox-unique-roudi.lock /dev/shm/iceoryx_mgmt"), std::string::npos) << out;
+    EXPECT_EQ(out.find("iceoryx"), out.find("iceoryx_mgmt")) << "a raw iceoryx line: " << out;
+}
+
 }  // namespace
 }  // namespace drivebus::test
