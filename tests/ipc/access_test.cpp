@@ -68,8 +68,31 @@ bool roudi_file_exists() {
     return fs::exists("/tmp/roudi", ec);
 }
 
+// drivebus-roudi.service's roudi.toml, for the test's groups.
+constexpr const char* kRouDiConfig = R"([general]
+version = 1
+[[segment]]
+writer = "dbt-daemon"
+reader = "dbt-watch"
+  [[segment.mempool]]
+  size = 1024
+  count = 512
+  [[segment.mempool]]
+  size = 4096
+  count = 1024
+[[segment]]
+writer = "dbt-control"
+reader = "dbt-daemon"
+  [[segment.mempool]]
+  size = 512
+  count = 1024
+)";
+
 class Access : public ::testing::Test {
 protected:
+    // The system RouDi (iox-roudi, as drivebus-roudi.service runs it) instead of an embedded one.
+    [[nodiscard]] virtual bool external() const { return false; }
+
     void SetUp() override {
         if (::geteuid() != 0) {
             GTEST_SKIP() << "needs root to create the test users and switch to them";
@@ -92,7 +115,7 @@ protected:
         bus_ = "a" + std::to_string(::getpid());
         const auto config = dir_ / "drivebusd.toml";
         std::ofstream(config) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
-                              << "[ipc]\nroudi = \"embedded\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
+                              << "[ipc]\nroudi = \"" << (external() ? "external" : "embedded") << "\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
                               << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
                               << "[[bus]]\nname = \"" << bus_ << "\"\ndevice = \"" << sim_->link().string()
                               << "\"\nparity = \"none\"\nretries = 3\n"
@@ -100,6 +123,13 @@ protected:
                                  "    [[bus.drive.poll]]\n    registers = [\"FD00\"]\n    period = \"50ms\"\n";
         fs::permissions(config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
         ASSERT_FALSE(roudi_file_exists()) << "a RouDi runs already";
+        if (external()) {
+            const auto roudi_config = dir_ / "roudi.toml";
+            std::ofstream(roudi_config) << kRouDiConfig;
+            fs::permissions(roudi_config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
+            roudi_ = std::make_unique<Child>(as(kDaemonUser, {"/usr/bin/iox-roudi", "-c", roudi_config.string()}));
+            ASSERT_TRUE(wait_until([] { return roudi_answers(); }, 10s)) << roudi_->output();
+        }
         daemon_ = std::make_unique<Child>(
             as(kDaemonUser, {DRIVEBUSD_PATH, "--config", config.string(), "--profile-dir", DRIVEBUS_PROFILE_DIR}));
         ASSERT_TRUE(wait_until([&] { return daemon_->output().find("running:") != std::string::npos; }, 10s))
@@ -107,6 +137,7 @@ protected:
     }
     void TearDown() override {
         daemon_.reset();
+        roudi_.reset();
         sim_.reset();
         std::error_code ec;
         fs::remove_all(dir_, ec);
@@ -120,6 +151,7 @@ protected:
     fs::path dir_;
     std::string bus_;
     std::unique_ptr<SimProcess> sim_;
+    std::unique_ptr<Child> roudi_;
     std::unique_ptr<Child> daemon_;
 };
 
@@ -186,6 +218,26 @@ TEST_F(Access, AViewerCannotOpenASegmentForWriting) {
     const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "654"});
     EXPECT_EQ(wrote, 0) << write_out;
     EXPECT_EQ(sim_->command("get 1 FA51"), "ok 654");
+}
+
+// The same with the system RouDi: drivebusd, the same user, seals the segments it made.
+class AccessExternal : public Access {
+protected:
+    [[nodiscard]] bool external() const override { return true; }
+};
+
+TEST_F(AccessExternal, AViewerCannotOpenASegmentForWriting) {
+    EXPECT_NE(daemon_->output().find("system RouDi"), std::string::npos) << daemon_->output();
+    EXPECT_EQ(daemon_->output().find("warning"), std::string::npos) << daemon_->output();
+    for (const auto* segment : {kDaemonGroup, kControl}) {
+        const auto [status, out] = run_program(as(kViewer, {OPEN_FILE_PATH, std::string("/dev/shm/") + segment, "rw"}));
+        EXPECT_EQ(out, "EACCES\n") << segment;
+    }
+    const auto [watched, watch_out] = client(kViewer, {"snapshots", "2"});
+    EXPECT_EQ(watched, 0) << watch_out;
+    const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "432"});
+    EXPECT_EQ(wrote, 0) << write_out;
+    EXPECT_EQ(sim_->command("get 1 FA51"), "ok 432");
 }
 
 TEST_F(Access, AnotherEffectiveGroupIsToldWhichOneToUse) {
