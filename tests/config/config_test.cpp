@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -950,6 +951,42 @@ TEST(ShmLimits, GroupNames) {
                              {key + " '" + name_of(most + 1) + "'", limit_text(shm::kGroupSize)}))
             << key;
     }
+}
+
+// The limits stated in the documentation are shm.hpp's, next to the keys they bound.
+std::string source_file(std::string_view name) {
+    std::ifstream in(fs::path(DRIVEBUS_TEST_SOURCE_DIR) / name);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+TEST(ShmLimits, TheDocumentationStatesShmHppsNumbers) {
+    const auto chars = [](std::size_t field_size) { return std::to_string(field_size - 1) + " characters"; };
+    const auto doc = source_file("docs/configuration.md");
+    for (const auto& row : {"| bus name | " + chars(shm::kNameSize), "| drive name | " + chars(shm::kNameSize),
+                            "| profile type | " + chars(shm::kProfileSize),
+                            "| serial device path | " + chars(shm::kDeviceSize),
+                            "| group names | " + chars(shm::kGroupSize),
+                            "| drives on one bus | " + std::to_string(shm::kMaxDrivesPerBus) + " |",
+                            "| registers in a drive's snapshot | " + std::to_string(shm::kMaxSnapshotRegisters) + " "}) {
+        EXPECT_NE(doc.find(row), std::string::npos) << "docs/configuration.md has no row " << row;
+    }
+    // Next to the keys: `name` of [[bus]] and [[bus.drive]], `device`, `profile`, `registers`.
+    EXPECT_NE(doc.find("unique, at most " + chars(shm::kNameSize) + " | names the bus's services"), std::string::npos);
+    EXPECT_NE(doc.find("unique across all buses, at most " + chars(shm::kNameSize)), std::string::npos);
+    EXPECT_NE(doc.find("absolute path, unique, at most " + chars(shm::kDeviceSize)), std::string::npos);
+    EXPECT_NE(doc.find("...), at most " + chars(shm::kProfileSize)), std::string::npos);
+    EXPECT_NE(doc.find("at most " + std::to_string(shm::kMaxSnapshotRegisters) + " different registers over all"),
+              std::string::npos);
+    EXPECT_NE(doc.find("A bus has at most " + std::to_string(shm::kMaxDrivesPerBus) + " drives"), std::string::npos);
+    const auto man = source_file("man/drivebusd.toml.5");
+    EXPECT_NE(man.find("bus and drive names\nof at most " + chars(shm::kNameSize)), std::string::npos);
+    EXPECT_NE(man.find("profile types of at most " + std::to_string(shm::kProfileSize - 1)), std::string::npos);
+    EXPECT_NE(man.find("device paths of at most " + std::to_string(shm::kDeviceSize - 1)), std::string::npos);
+    EXPECT_NE(man.find("at most " + std::to_string(shm::kMaxDrivesPerBus) + " drives on a bus"), std::string::npos);
+    EXPECT_NE(man.find("at most " + std::to_string(shm::kMaxSnapshotRegisters) + " different registers"),
+              std::string::npos);
 }
 
 // ---- [ipc] and the control lease ----
