@@ -240,8 +240,8 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
         for (const auto& segment : host->layout_.segments) {
             segments.push_back(segment.writer_group);
         }
-        if (auto stale = stale_roudi_files(segments)) {
-            return std::unexpected(*stale);
+        if (auto in_the_way = roudi_in_the_way(segments)) {
+            return std::unexpected(*in_the_way);
         }
         iox::RouDiConfig_t roudi_config;
         for (const auto& segment : host->layout_.segments) {

@@ -64,9 +64,20 @@ bool lock_is_free(const std::string& path, sys::UniqueFd& lock) {
     return sys::posix_call("flock", [&] { return ::flock(lock.get(), LOCK_EX | LOCK_NB); }).has_value();
 }
 
+// Whether a live process holds the lock at `path` (iceoryx locks with flock).
+bool held_by_another(const std::string& path) {
+    const auto fd = sys::posix_call("open", [&] { return ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW); });
+    if (!fd) {
+        return false;
+    }
+    const sys::UniqueFd lock(*fd);
+    const auto taken = sys::posix_call("flock", [&] { return ::flock(lock.get(), LOCK_EX | LOCK_NB); });
+    return !taken && taken.error().error == EWOULDBLOCK;
+}
+
 }  // namespace
 
-std::optional<std::string> stale_roudi_files(const std::vector<std::string>& segments) {
+std::optional<std::string> roudi_in_the_way(const std::vector<std::string>& segments) {
     const std::string tmp = iox::platform::IOX_UDS_SOCKET_PATH_PREFIX;
     std::vector<std::string> paths = {
         std::string(iox::platform::IOX_LOCK_FILE_PATH_PREFIX) + iox::roudi::ROUDI_LOCK_NAME + ".lock",
@@ -76,6 +87,12 @@ std::optional<std::string> stale_roudi_files(const std::vector<std::string>& seg
     };
     for (const auto& segment : segments) {
         paths.push_back("/dev/shm/" + segment);
+    }
+    if (held_by_another(paths.front())) {
+        return fmt::format(
+            "a RouDi holds {} but does not answer on {}{} (it is starting, or hangs): wait for it, "
+            "or stop that iox-roudi or drivebusd",
+            paths.front(), tmp, iox::roudi::IPC_CHANNEL_ROUDI_NAME);
     }
     const auto me = ::geteuid();
     std::string found;

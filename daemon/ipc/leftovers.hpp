@@ -13,10 +13,11 @@
 
 namespace drivebus::ipc {
 
-// Before a RouDi is embedded (none answers): the files of a dead RouDi that this process may
-// not replace. One line that names them and says what to remove; nullopt when there are none.
-// `segments` are the names of the payload segments (/dev/shm/<name>).
-[[nodiscard]] std::optional<std::string> stale_roudi_files(const std::vector<std::string>& segments);
+// Before a RouDi is embedded (none answers): what would stop it, in one line that says what to
+// do; nullopt when nothing does. Either a RouDi that holds its lock but does not answer (it is
+// starting, or hangs), or files of a dead RouDi that this process may not replace, named with
+// what to remove. `segments` are the names of the payload segments (/dev/shm/<name>).
+[[nodiscard]] std::optional<std::string> roudi_in_the_way(const std::vector<std::string>& segments);
 
 // Removes the sockets (and locks) in `dir` of iceoryx runtimes named as drivebus names them,
 // <name>-<pid> with name [A-Za-z0-9_-]{1,60}, whose process is gone and whose lock nobody

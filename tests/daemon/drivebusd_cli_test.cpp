@@ -189,6 +189,26 @@ TEST_F(DrivebusdCli, ACleanStopLogsNoError) {
     }
 }
 
+// A RouDi that holds its lock but does not answer yet (starting, or hung): drivebusd says so
+// in one line instead of iceoryx's fatal lines.
+TEST_F(DrivebusdCli, ARouDiThatHoldsItsLockWithoutAnsweringIsOneLine) {
+    const char* lock_path = "/tmp/iox-unique-roudi.lock";
+    sys::UniqueFd lock(::open(lock_path, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600));
+    if (!lock) {
+        GTEST_SKIP() << lock_path << " is there already: a RouDi runs";
+    }
+    ASSERT_EQ(::flock(lock.get(), LOCK_EX | LOCK_NB), 0);
+    const fs::path file = dir / "drivebusd.toml";
+    std::ofstream(file) << kGood;
+    const auto [status, out] = run_program({DRIVEBUSD_PATH, "--config", file.string()});
+    ::unlink(lock_path);
+    EXPECT_EQ(status, 1) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_NE(out.find("a RouDi holds /tmp/iox-unique-roudi.lock but does not answer on /tmp/roudi"),
+              std::string::npos)
+        << out;
+}
+
 // A socket file at `path`, as an iceoryx runtime leaves it (the socket itself closed).
 void make_socket_file(const fs::path& path) {
     sys::UniqueFd fd(::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0));
