@@ -152,6 +152,12 @@ int run_main(int argc, char** argv) {
         }
     }
     log::notice("shared memory: " + (*ipc_host)->describe());
+    for (const auto& warning : (*ipc_host)->warnings()) {
+        log::warning("shared memory: " + warning);
+    }
+    for (const auto& note : (*ipc_host)->notes()) {
+        log::notice("shared memory: " + note);
+    }
 
     std::vector<std::unique_ptr<ipc::BusService>> services;
     std::vector<std::unique_ptr<bus::BusLoop>> loops;

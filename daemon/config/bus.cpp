@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "drivebus/shm.hpp"
 #include "read.hpp"
 #include "serial/termios.hpp"
 
@@ -159,6 +160,12 @@ void read_drives(Section& s, Errors& errors, ProfileCache& profiles, DriveNames&
         errors.add("", s.where() + " has no drives ([[bus.drive]])");
         return;
     }
+    // The bus status lists the drives clients can find by name or address.
+    if (drives.size() > shm::kMaxDrivesPerBus) {
+        s.fail(std::to_string(drives.size()) + " drives ([[bus.drive]]), more than the " +
+               std::to_string(shm::kMaxDrivesPerBus) + " that a bus status in shared memory lists");
+        return;
+    }
     std::map<std::uint8_t, std::string> addresses;
     for (std::size_t i = 0; i < drives.size(); ++i) {
         auto drive = read_drive(*drives[i], i, s.where(), bus.format, errors, profiles);
@@ -214,10 +221,15 @@ BusConfig read_bus(const toml::table& table, std::size_t index, Errors& errors, 
     if (auto name = s.string("name", Need::Required)) {
         if (!valid_name(*name)) {
             s.fail("name " + in_quotes(*name) + " is not made of a-z, 0-9, '_' and '-'");
+        } else {
+            fits_shm(s, "name", *name, shm::kNameSize, "a bus name");
         }
         bus.name = std::move(*name);
     }
     bus.device = absolute_path(s, "device", Need::Required).value_or("");
+    if (!bus.device.empty()) {
+        fits_shm(s, "device", bus.device.string(), shm::kDeviceSize, "the bus status's device");
+    }
     read_line(s, bus.format);
     read_direction(s, table, bus);
     read_timing(s, table, bus);

@@ -8,6 +8,7 @@
 #include <map>
 #include <system_error>
 
+#include "drivebus/shm.hpp"
 #include "read.hpp"
 
 namespace drivebus::config {
@@ -100,13 +101,15 @@ IpcConfig read_ipc(const toml::table& table, Errors& errors) {
     const auto group = [&](std::string_view key, std::string& out) {
         if (auto name = s.string(key)) {
             // POSIX portable user and group names, as useradd takes them.
-            const bool ok = !name->empty() && name->size() < 32 && (*name)[0] != '-' &&
+            const bool ok = !name->empty() && (*name)[0] != '-' &&
                             std::ranges::all_of(*name, [](char c) {
                                 return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
                                        c == '_' || c == '-' || c == '.';
                             });
             if (!ok) {
                 s.fail(std::string(key) + " " + in_quotes(*name) + " is not a valid group name");
+            } else {
+                fits_shm(s, key, *name, shm::kGroupSize, "a group name");
             }
             out = std::move(*name);
         }

@@ -3,6 +3,7 @@
 #include <limits>
 #include <set>
 
+#include "drivebus/shm.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {
@@ -97,11 +98,14 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
     if (auto name = s.string("name", Need::Required)) {
         if (!valid_name(*name)) {
             s.fail("name " + in_quotes(*name) + " is not made of a-z, 0-9, '_' and '-'");
+        } else {
+            fits_shm(s, "name", *name, shm::kNameSize, "a drive name");
         }
         drive.name = std::move(*name);
     }
     const auto address = s.integer("address", -kAnyInteger, kAnyInteger, Need::Required);
-    if (const auto type = s.string("profile", Need::Required)) {
+    if (const auto type = s.string("profile", Need::Required);
+        type && fits_shm(s, "profile", *type, shm::kProfileSize, "a snapshot's profile type")) {
         auto profile = profiles.get(*type);
         if (profile) {
             drive.profile = std::move(*profile);
@@ -127,11 +131,20 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
     read_lease(s, table, drive);
     const auto polls = s.tables("poll");
     std::set<std::string, std::less<>> names;
+    std::set<std::uint16_t> polled;  // every register the snapshot carries, once
     for (std::size_t i = 0; i < polls.size(); ++i) {
         auto poll = read_poll(*polls[i], i, s.where(), drive.profile.get(), errors);
+        const auto where = s.where() + " poll " + in_quotes(poll.name);
         if (!names.insert(poll.name).second) {
-            errors.add(s.where() + " poll " + in_quotes(poll.name),
-                       "name " + in_quotes(poll.name) + " is already another poll of this drive");
+            errors.add(where, "name " + in_quotes(poll.name) + " is already another poll of this drive");
+        }
+        for (const auto& reg : poll.registers) {
+            polled.insert(reg.address);
+        }
+        if (polled.size() > shm::kMaxSnapshotRegisters) {
+            errors.add(where, "registers: the drive's poll groups read " + std::to_string(polled.size()) +
+                                  " different registers, more than the " + std::to_string(shm::kMaxSnapshotRegisters) +
+                                  " a snapshot in shared memory carries");
         }
         drive.polls.push_back(std::move(poll));
     }

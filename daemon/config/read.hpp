@@ -25,6 +25,10 @@ using profile_detail::Section;
 
 // Bus, drive and poll names: [a-z0-9_-]+ (they name services and appear in logs).
 [[nodiscard]] bool valid_name(std::string_view name) noexcept;
+// Whether `text`, the value of `key`, fits a NUL-terminated field of `field_size` bytes of the
+// shared-memory payloads (drivebus/shm.hpp), which `field` names in the error. A longer text
+// would be cut there and then match nothing a client asks for.
+bool fits_shm(Section& s, std::string_view key, std::string_view text, std::size_t field_size, std::string_view field);
 // "bus #2": an entry of an array of tables before its name is known, counting from 1.
 [[nodiscard]] std::string entry_name(std::string_view array, std::size_t index);
 // "none, even, odd".

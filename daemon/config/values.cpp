@@ -34,6 +34,17 @@ bool valid_name(std::string_view name) noexcept {
     });
 }
 
+bool fits_shm(Section& s, std::string_view key, std::string_view text, std::size_t field_size, std::string_view field) {
+    const auto most = field_size - 1;
+    if (text.size() <= most) {
+        return true;
+    }
+    s.fail(std::string(key) + " " + in_quotes(text) + " has " + std::to_string(text.size()) +
+           " characters, more than the " + std::to_string(most) + " that " + std::string(field) +
+           " in shared memory holds");
+    return false;
+}
+
 std::string entry_name(std::string_view array, std::size_t index) {
     return std::string(array) + " #" + std::to_string(index + 1);
 }

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <chrono>
 #include <cstdlib>
+#include <optional>
 #include <thread>
 #include <fmt/format.h>
 
@@ -21,6 +22,9 @@
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
 #include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
+#include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
+#include "ipc/leftovers.hpp"
+#include "ipc/seal.hpp"
 #include "sys/posix.hpp"
 
 namespace drivebus::ipc {
@@ -118,14 +122,35 @@ void on_iceoryx_error(const iox::Error error, const std::function<void()>& callb
 
 }  // namespace
 
+// The segments of a grouped layout, each writable by its writer group only (seal.hpp).
+std::expected<void, std::string> seal_all(const Layout& layout) {
+    if (!layout.grouped) {
+        return {};
+    }
+    for (const auto& segment : layout.segments) {
+        if (auto sealed = seal_segment(segment); !sealed) {
+            return std::unexpected(fmt::format("could not make segment {} writable by group {} only: {}",
+                                               segment_path(segment), segment.writer_group, sealed.error()));
+        }
+    }
+    return {};
+}
+
+// The components create the segments; RouDi, once constructed, answers on its socket.
+// This process's runtime is a member too, declared last: it goes first, and says goodbye to a
+// RouDi that still listens. (initRuntime()'s runtime is a static that outlives every object
+// of main(); at exit it would send its TERMINATION to a RouDi already gone, and iceoryx logs
+// that as two errors on every clean stop.)
 struct Host::Embedded {
-    explicit Embedded(const iox::RouDiConfig_t& config)
-        : components(config),
-          roudi(components.rouDiMemoryManager, components.portManager,
-                iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
-                                                          /*killProcessesInDestructor=*/false}) {}
+    explicit Embedded(const iox::RouDiConfig_t& config) : components(config) {}
+    void serve() {
+        roudi.emplace(components.rouDiMemoryManager, components.portManager,
+                      iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
+                                                                /*killProcessesInDestructor=*/false});
+    }
     iox::roudi::IceOryxRouDiComponents components;
-    iox::roudi::RouDi roudi;
+    std::optional<iox::roudi::RouDi> roudi;
+    std::optional<iox::runtime::PoshRuntimeSingleProcess> runtime;
 };
 
 std::expected<Layout, std::string> plan_layout(const config::Config& config) {
@@ -211,6 +236,13 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
     case config::RouDiMode::Auto: break;
     }
     if (!running) {
+        std::vector<std::string> segments;
+        for (const auto& segment : host->layout_.segments) {
+            segments.push_back(segment.writer_group);
+        }
+        if (auto in_the_way = roudi_in_the_way(segments)) {
+            return std::unexpected(*in_the_way);
+        }
         iox::RouDiConfig_t roudi_config;
         for (const auto& segment : host->layout_.segments) {
             iox::mepoo::MePooConfig pools;
@@ -224,6 +256,11 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
         }
         roudi_config.iox::config::RouDiConfig::setDefaults();
         host->roudi_ = std::make_unique<Embedded>(roudi_config);
+        // Before RouDi answers anybody, so that no client has opened a segment yet.
+        if (auto sealed = seal_all(host->layout_); !sealed) {
+            return std::unexpected(sealed.error());
+        }
+        host->roudi_->serve();
         // RouDi's thread makes its socket under a temporary process-wide umask; a runtime
         // started meanwhile in this process does the same, and the two can leave the socket
         // without group write (clients then get EACCES). Wait for it, then set its mode.
@@ -237,7 +274,27 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
             return std::unexpected("the embedded RouDi's socket " + socket + " did not appear");
         }
     }
-    iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+    if (running) {
+        // The system RouDi made the segments; drivebusd's user owns them when the unit runs it
+        // as that user (drivebus-roudi.service), and then can seal them.
+        if (auto sealed = seal_all(host->layout_); !sealed) {
+            host->warnings_.push_back(sealed.error() + "; run the RouDi as drivebusd's user (drivebus-roudi.service)");
+        }
+    }
+    if (const auto removed = remove_stale_client_sockets(); !removed.empty()) {
+        std::string list;
+        for (std::size_t i = 0; i < removed.size() && i < 5; ++i) {
+            list += " " + removed[i];
+        }
+        host->notes_.push_back(fmt::format("removed the sockets of {} iceoryx client(s) that were killed:{}{}",
+                                           removed.size(), list, removed.size() > 5 ? " ..." : ""));
+    }
+    const iox::RuntimeName_t runtime_name(iox::cxx::TruncateToCapacity, name.c_str());
+    if (host->roudi_) {
+        host->roudi_->runtime.emplace(runtime_name);
+    } else {
+        iox::runtime::PoshRuntime::initRuntime(runtime_name);
+    }
     return host;
 }
 

@@ -57,11 +57,17 @@ public:
     [[nodiscard]] static std::string management_segment();
     // One line for the log: "embedded RouDi, 2 segments (8.4 MiB), groups drivebus/drivebus-control".
     [[nodiscard]] std::string describe() const;
+    // What start() could not do and drivebusd runs without, one line each, for the log.
+    [[nodiscard]] const std::vector<std::string>& warnings() const noexcept { return warnings_; }
+    // What start() tidied up on the way, one line each, for the log.
+    [[nodiscard]] const std::vector<std::string>& notes() const noexcept { return notes_; }
 
 private:
     struct Embedded;
     Host() = default;
     Layout layout_;
+    std::vector<std::string> warnings_;
+    std::vector<std::string> notes_;
     std::unique_ptr<Embedded> roudi_;
 };
 

@@ -27,6 +27,7 @@ inline constexpr std::string_view kDriveEventPrefix = "drive/";
 inline constexpr std::size_t kNameSize = 32;     // bus and drive names, NUL-terminated
 inline constexpr std::size_t kProfileSize = 16;  // profile type, NUL-terminated
 inline constexpr std::size_t kGroupSize = 32;    // Unix group names
+inline constexpr std::size_t kDeviceSize = 64;   // the bus's serial device path, NUL-terminated
 inline constexpr std::size_t kMaxSnapshotRegisters = 128;
 inline constexpr std::size_t kMaxDrivesPerBus = 32;
 inline constexpr std::size_t kMaxReadWords = 125;   // FC03
@@ -161,7 +162,7 @@ struct BusStatus {
     std::int32_t daemon_pid = 0;
     std::uint32_t baud = 0;
     std::array<char, kNameSize> bus{};
-    std::array<char, 64> device{};
+    std::array<char, kDeviceSize> device{};
     std::array<char, 4> format{};  // "8E1"
     std::uint8_t up = 0;           // the line is open
     std::uint8_t drive_count = 0;

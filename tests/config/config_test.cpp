@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "drivebus/shm.hpp"
+
 #include <unistd.h>
 #include "one_line_error.hpp"
 #include "scratch_dir.hpp"
@@ -12,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -882,6 +885,149 @@ TEST(Warnings, ALeaseThatCanOnlyHold) {
     // The ATV21 can stop, even when its configuration chose to hold.
     EXPECT_TRUE(start_up_warnings(parsed(kValid)).empty());
     EXPECT_TRUE(start_up_warnings(parsed(with_drive("fallback = \"hold\""))).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation: what the shared-memory payloads (drivebus/shm.hpp) can carry. Each limit is taken
+// from shm.hpp: at the limit accepted, one past it refused with a line naming key and limit.
+
+// A name of `n` characters.
+std::string name_of(std::size_t n) {
+    return std::string(n, 'a');
+}
+std::string limit_text(std::size_t field_size) {
+    return "more than the " + std::to_string(field_size - 1);
+}
+
+TEST(ShmLimits, BusName) {
+    const auto most = shm::kNameSize - 1;
+    EXPECT_EQ(parsed(edited(kValid, "\"line1\"", '"' + name_of(most) + '"')).buses.at(0).name.size(), most);
+    EXPECT_TRUE(rejected(edited(kValid, "\"line1\"", '"' + name_of(most + 1) + '"'),
+                         {"name '" + name_of(most + 1) + "' has " + std::to_string(most + 1) + " characters",
+                          limit_text(shm::kNameSize), "a bus name in shared memory"}));
+}
+
+TEST(ShmLimits, DriveName) {
+    const auto most = shm::kNameSize - 1;
+    EXPECT_EQ(parsed(edited(kValid, "\"pump\"", '"' + name_of(most) + '"')).buses.at(0).drives.at(0).name.size(),
+              most);
+    EXPECT_TRUE(rejected(edited(kValid, "\"pump\"", '"' + name_of(most + 1) + '"'),
+                         {"bus 'line1' drive", "name '" + name_of(most + 1) + "'", limit_text(shm::kNameSize),
+                          "a drive name in shared memory"}));
+}
+
+TEST(ShmLimits, ProfileType) {
+    const ScratchDir dir;
+    const auto most = shm::kProfileSize - 1;
+    for (const auto n : {most, most + 1}) {
+        dir.write(name_of(n) + ".toml", edited(kWriteOnlyProfile, "\"wo\"", '"' + name_of(n) + '"'));
+    }
+    const auto typed = [&](std::size_t n) { return edited(wo_config(R"(["ST"])"), "\"wo\"", '"' + name_of(n) + '"'); };
+    EXPECT_EQ(parsed(typed(most), LoadOptions{dir.path()}).buses.at(0).drives.at(0).profile->type.size(), most);
+    EXPECT_TRUE(rejected(typed(most + 1),
+                         {"drive 'pump': profile '" + name_of(most + 1) + "'", limit_text(shm::kProfileSize)},
+                         LoadOptions{dir.path()}));
+}
+
+TEST(ShmLimits, Device) {
+    const std::string prefix = "/dev/";
+    const auto most = shm::kDeviceSize - 1;
+    const auto device = [&](std::size_t n) { return prefix + name_of(n - prefix.size()); };
+    EXPECT_EQ(parsed(edited(kValid, "/dev/ttyUSB0", device(most))).buses.at(0).device.string().size(), most);
+    EXPECT_TRUE(rejected(edited(kValid, "/dev/ttyUSB0", device(most + 1)),
+                         {"bus 'line1': device '" + device(most + 1) + "'", limit_text(shm::kDeviceSize)}));
+}
+
+// kValid with `n` drives on its bus, at addresses 1..n.
+std::string with_drives(std::size_t n) {
+    std::string text(kValid);
+    for (std::size_t i = 2; i <= n; ++i) {
+        text += "  [[bus.drive]]\n  name = \"d" + std::to_string(i) + "\"\n  address = " + std::to_string(i) +
+                "\n  profile = \"atv21\"\n";
+    }
+    return text;
+}
+
+TEST(ShmLimits, DrivesPerBus) {
+    EXPECT_EQ(parsed(with_drives(shm::kMaxDrivesPerBus)).buses.at(0).drives.size(), shm::kMaxDrivesPerBus);
+    EXPECT_TRUE(rejected(with_drives(shm::kMaxDrivesPerBus + 1),
+                         {"bus 'line1': " + std::to_string(shm::kMaxDrivesPerBus + 1) + " drives ([[bus.drive]])",
+                          "more than the " + std::to_string(shm::kMaxDrivesPerBus)}));
+}
+
+// kValid whose drive has a second poll group "slow": together they read FD00, FD01 (the first
+// group) and `extra` numbered registers (0x7000 up), `repeated` of them read by both groups.
+std::string polling_in_two_groups(std::size_t extra, std::size_t repeated) {
+    std::string first = R"(["FD00", "FD01")";
+    for (std::size_t i = 0; i < repeated; ++i) {
+        first += ", " + std::to_string(0x7000 + i);
+    }
+    std::string second = "[";
+    for (std::size_t i = 0; i < extra; ++i) {
+        second += (i == 0 ? "" : ", ") + std::to_string(0x7000 + i);
+    }
+    second += "]";
+    return edited(kValid, R"(["FD00", "FD01"])", first + "]") +
+           "\n    [[bus.drive.poll]]\n    name = \"slow\"\n    registers = " + second + "\n    period = \"1s\"\n";
+}
+
+TEST(ShmLimits, RegistersPerSnapshotOverAllPollGroups) {
+    const auto most = shm::kMaxSnapshotRegisters;
+    // A register in both groups is one entry of the snapshot.
+    const auto fit = parsed(polling_in_two_groups(most - 2, 10)).buses.at(0).drives.at(0);
+    ASSERT_EQ(fit.polls.size(), 2U);
+    EXPECT_EQ(fit.polls[0].registers.size() + fit.polls[1].registers.size(), most + 10);
+    EXPECT_TRUE(rejected(polling_in_two_groups(most - 1, 10),
+                         {"bus 'line1' drive 'pump' poll 'slow': registers",
+                          "read " + std::to_string(most + 1) + " different registers",
+                          "more than the " + std::to_string(most) + " a snapshot"}));
+}
+
+TEST(ShmLimits, GroupNames) {
+    const auto most = shm::kGroupSize - 1;
+    const std::string bus(kValid);
+    for (const std::string key : {"watch_group", "control_group", "daemon_group"}) {
+        EXPECT_EQ(parsed("[ipc]\n" + key + " = \"" + name_of(most) + "\"\n" + bus).ipc.max_clients, 32U) << key;
+        EXPECT_TRUE(rejected("[ipc]\n" + key + " = \"" + name_of(most + 1) + "\"\n" + bus,
+                             {key + " '" + name_of(most + 1) + "'", limit_text(shm::kGroupSize)}))
+            << key;
+    }
+}
+
+// The limits stated in the documentation are shm.hpp's, next to the keys they bound.
+std::string source_file(std::string_view name) {
+    std::ifstream in(fs::path(DRIVEBUS_TEST_SOURCE_DIR) / name);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+TEST(ShmLimits, TheDocumentationStatesShmHppsNumbers) {
+    const auto chars = [](std::size_t field_size) { return std::to_string(field_size - 1) + " characters"; };
+    const auto doc = source_file("docs/configuration.md");
+    for (const auto& row : {"| bus name | " + chars(shm::kNameSize), "| drive name | " + chars(shm::kNameSize),
+                            "| profile type | " + chars(shm::kProfileSize),
+                            "| serial device path | " + chars(shm::kDeviceSize),
+                            "| group names | " + chars(shm::kGroupSize),
+                            "| drives on one bus | " + std::to_string(shm::kMaxDrivesPerBus) + " |",
+                            "| registers in a drive's snapshot | " + std::to_string(shm::kMaxSnapshotRegisters) + " "}) {
+        EXPECT_NE(doc.find(row), std::string::npos) << "docs/configuration.md has no row " << row;
+    }
+    // Next to the keys: `name` of [[bus]] and [[bus.drive]], `device`, `profile`, `registers`.
+    EXPECT_NE(doc.find("unique, at most " + chars(shm::kNameSize) + " | names the bus's services"), std::string::npos);
+    EXPECT_NE(doc.find("unique across all buses, at most " + chars(shm::kNameSize)), std::string::npos);
+    EXPECT_NE(doc.find("absolute path, unique, at most " + chars(shm::kDeviceSize)), std::string::npos);
+    EXPECT_NE(doc.find("...), at most " + chars(shm::kProfileSize)), std::string::npos);
+    EXPECT_NE(doc.find("at most " + std::to_string(shm::kMaxSnapshotRegisters) + " different registers over all"),
+              std::string::npos);
+    EXPECT_NE(doc.find("A bus has at most " + std::to_string(shm::kMaxDrivesPerBus) + " drives"), std::string::npos);
+    const auto man = source_file("man/drivebusd.toml.5");
+    EXPECT_NE(man.find("bus and drive names\nof at most " + chars(shm::kNameSize)), std::string::npos);
+    EXPECT_NE(man.find("profile types of at most " + std::to_string(shm::kProfileSize - 1)), std::string::npos);
+    EXPECT_NE(man.find("device paths of at most " + std::to_string(shm::kDeviceSize - 1)), std::string::npos);
+    EXPECT_NE(man.find("at most " + std::to_string(shm::kMaxDrivesPerBus) + " drives on a bus"), std::string::npos);
+    EXPECT_NE(man.find("at most " + std::to_string(shm::kMaxSnapshotRegisters) + " different registers"),
+              std::string::npos);
 }
 
 // ---- [ipc] and the control lease ----

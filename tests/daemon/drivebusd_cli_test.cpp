@@ -11,10 +11,14 @@
 #include <sstream>
 
 #include <sched.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include "drivebus/shm.hpp"
 #include "sim_process.hpp"
 #include "sys/posix.hpp"
 
@@ -54,6 +58,15 @@ std::string with(std::string_view from, std::string_view to) {
     }
     text.replace(at, from.size(), to);
     return text;
+}
+
+// "28672, 28673, ...": `n` register numbers no profile names.
+std::string numbered(std::size_t n) {
+    std::string out;
+    for (std::size_t i = 0; i < n; ++i) {
+        out += (i == 0 ? "" : ", ") + std::to_string(0x7000 + i);
+    }
+    return out;
 }
 
 class DrivebusdCli : public ::testing::Test {
@@ -100,6 +113,11 @@ TEST_F(DrivebusdCli, BadConfigurationsAreOneLineAndExit78) {
         {with("parity = \"none\"", "parity = \"none\"\nretries = 99"), "retries"},
         {with("mode = \"off\"", "mode = \"off\"\npriority = 150"), "priority"},
         {with("name = \"line1\"", "name = \"Line 1\""), "Line 1"},
+        // What the shared memory cannot carry (drivebus/shm.hpp).
+        {with("name = \"pump\"", "name = \"" + std::string(shm::kNameSize, 'p') + "\""),
+         "than the " + std::to_string(shm::kNameSize - 1)},
+        {with("registers = [\"FD00\"]", "registers = [" + numbered(shm::kMaxSnapshotRegisters + 1) + "]"),
+         "than the " + std::to_string(shm::kMaxSnapshotRegisters)},
         {"this is not toml", "drivebusd.toml"},
         {"", "bus"},
     };
@@ -247,6 +265,101 @@ TEST_F(DrivebusdCli, LocksItsOwnMemoryAndRunsTheIpcThreadUnderTheBusThread) {
         << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).first << " "
         << thread_scheduling(daemon.pid(), "ipc line1").value_or(std::pair(-1, -1)).second;
     EXPECT_EQ(daemon.stop(), 0) << daemon.output();
+}
+
+// iceoryx's own error lines would hide real ones: a clean stop, with a client that came and
+// went, prints none.
+TEST_F(DrivebusdCli, ACleanStopLogsNoError) {
+    SimProcess sim({"--drive", "1:atv21"});
+    std::ofstream(dir / "run.toml") << with("/dev/ttyDOESNOTEXIST", sim.link().string());
+    Child daemon({DRIVEBUSD_PATH, "--config", (dir / "run.toml").string()});
+    ASSERT_TRUE(wait_until([&] { return daemon.output().find("running:") != std::string::npos; }, 10s))
+        << daemon.output();
+    const auto [listed, list_out] = run_program({DRIVEBUSCTL_PATH, "--bus", "line1", "list"});
+    EXPECT_EQ(listed, 0) << list_out;
+    EXPECT_EQ(daemon.stop(), 0) << daemon.output();
+    const auto out = daemon.output();
+    EXPECT_NE(out.find("stopped:"), std::string::npos) << out;
+    for (const char* noise : {"Error", "error", "fatal"}) {
+        EXPECT_EQ(out.find(noise), std::string::npos) << noise << " in:\n" << out;
+    }
+}
+
+// A RouDi that holds its lock but does not answer yet (starting, or hung): drivebusd says so
+// in one line instead of iceoryx's fatal lines.
+TEST_F(DrivebusdCli, ARouDiThatHoldsItsLockWithoutAnsweringIsOneLine) {
+    const char* lock_path = "/tmp/iox-unique-roudi.lock";
+    sys::UniqueFd lock(::open(lock_path, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600));
+    if (!lock) {
+        GTEST_SKIP() << lock_path << " is there already: a RouDi runs";
+    }
+    ASSERT_EQ(::flock(lock.get(), LOCK_EX | LOCK_NB), 0);
+    const fs::path file = dir / "drivebusd.toml";
+    std::ofstream(file) << kGood;
+    const auto [status, out] = run_program({DRIVEBUSD_PATH, "--config", file.string()});
+    ::unlink(lock_path);
+    EXPECT_EQ(status, 1) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_NE(out.find("a RouDi holds /tmp/iox-unique-roudi.lock but does not answer on /tmp/roudi"),
+              std::string::npos)
+        << out;
+}
+
+// A socket file at `path`, as an iceoryx runtime leaves it (the socket itself closed).
+void make_socket_file(const fs::path& path) {
+    sys::UniqueFd fd(::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0));
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+    ASSERT_EQ(::bind(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0) << path;
+}
+
+// The pid of a process that has ended.
+pid_t gone_pid() {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        ::_exit(0);
+    }
+    ::waitpid(pid, nullptr, 0);
+    return pid;
+}
+
+// A killed client leaves /tmp/<name>-<pid> and its lock. The next drivebusd removes those
+// whose process is gone and whose lock is free, and leaves the others.
+TEST_F(DrivebusdCli, SocketsOfKilledClientsAreRemovedAtStart) {
+    const fs::path tmp = "/tmp";
+    const auto tag = "dbcli" + std::to_string(::getpid());
+    const fs::path stale = tmp / (tag + "_stale-" + std::to_string(gone_pid()));
+    const fs::path held = tmp / (tag + "_held-" + std::to_string(gone_pid()));  // a live runtime's lock
+    const fs::path live = tmp / (tag + "_live-" + std::to_string(::getpid()));
+    std::vector<sys::UniqueFd> locks;
+    for (const auto& path : {stale, held, live}) {
+        make_socket_file(path);
+        locks.emplace_back(::open((path.string() + ".lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600));
+    }
+    ASSERT_EQ(::flock(locks[1].get(), LOCK_EX | LOCK_NB), 0);
+    ASSERT_EQ(::flock(locks[2].get(), LOCK_EX | LOCK_NB), 0);
+    locks[0] = sys::UniqueFd();  // the killed client's lock: closed, nobody holds it
+
+    SimProcess sim({"--drive", "1:atv21"});
+    std::ofstream(dir / "run.toml") << with("/dev/ttyDOESNOTEXIST", sim.link().string());
+    Child daemon({DRIVEBUSD_PATH, "--config", (dir / "run.toml").string()});
+    ASSERT_TRUE(wait_until([&] { return daemon.output().find("running:") != std::string::npos; }, 10s))
+        << daemon.output();
+    EXPECT_FALSE(fs::exists(stale));
+    EXPECT_FALSE(fs::exists(stale.string() + ".lock"));
+    EXPECT_NE(daemon.output().find("removed the sockets of"), std::string::npos) << daemon.output();
+    EXPECT_NE(daemon.output().find(stale.string()), std::string::npos) << daemon.output();
+    for (const auto& kept : {held, live}) {
+        EXPECT_TRUE(fs::exists(kept)) << kept;
+        EXPECT_TRUE(fs::exists(kept.string() + ".lock")) << kept;
+    }
+    EXPECT_EQ(daemon.stop(), 0) << daemon.output();
+    for (const auto& path : {stale, held, live}) {
+        std::error_code ec;
+        fs::remove(path, ec);
+        fs::remove(path.string() + ".lock", ec);
+    }
 }
 
 }  // namespace

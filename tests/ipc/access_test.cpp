@@ -68,8 +68,31 @@ bool roudi_file_exists() {
     return fs::exists("/tmp/roudi", ec);
 }
 
+// drivebus-roudi.service's roudi.toml, for the test's groups.
+constexpr const char* kRouDiConfig = R"([general]
+version = 1
+[[segment]]
+writer = "dbt-daemon"
+reader = "dbt-watch"
+  [[segment.mempool]]
+  size = 1024
+  count = 512
+  [[segment.mempool]]
+  size = 4096
+  count = 1024
+[[segment]]
+writer = "dbt-control"
+reader = "dbt-daemon"
+  [[segment.mempool]]
+  size = 512
+  count = 1024
+)";
+
 class Access : public ::testing::Test {
 protected:
+    // The system RouDi (iox-roudi, as drivebus-roudi.service runs it) instead of an embedded one.
+    [[nodiscard]] virtual bool external() const { return false; }
+
     void SetUp() override {
         if (::geteuid() != 0) {
             GTEST_SKIP() << "needs root to create the test users and switch to them";
@@ -92,7 +115,7 @@ protected:
         bus_ = "a" + std::to_string(::getpid());
         const auto config = dir_ / "drivebusd.toml";
         std::ofstream(config) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
-                              << "[ipc]\nroudi = \"embedded\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
+                              << "[ipc]\nroudi = \"" << (external() ? "external" : "embedded") << "\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
                               << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
                               << "[[bus]]\nname = \"" << bus_ << "\"\ndevice = \"" << sim_->link().string()
                               << "\"\nparity = \"none\"\nretries = 3\n"
@@ -100,6 +123,13 @@ protected:
                                  "    [[bus.drive.poll]]\n    registers = [\"FD00\"]\n    period = \"50ms\"\n";
         fs::permissions(config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
         ASSERT_FALSE(roudi_file_exists()) << "a RouDi runs already";
+        if (external()) {
+            const auto roudi_config = dir_ / "roudi.toml";
+            std::ofstream(roudi_config) << kRouDiConfig;
+            fs::permissions(roudi_config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
+            roudi_ = std::make_unique<Child>(as(kDaemonUser, {"/usr/bin/iox-roudi", "-c", roudi_config.string()}));
+            ASSERT_TRUE(wait_until([] { return roudi_answers(); }, 10s)) << roudi_->output();
+        }
         daemon_ = std::make_unique<Child>(
             as(kDaemonUser, {DRIVEBUSD_PATH, "--config", config.string(), "--profile-dir", DRIVEBUS_PROFILE_DIR}));
         ASSERT_TRUE(wait_until([&] { return daemon_->output().find("running:") != std::string::npos; }, 10s))
@@ -107,6 +137,7 @@ protected:
     }
     void TearDown() override {
         daemon_.reset();
+        roudi_.reset();
         sim_.reset();
         std::error_code ec;
         fs::remove_all(dir_, ec);
@@ -120,6 +151,7 @@ protected:
     fs::path dir_;
     std::string bus_;
     std::unique_ptr<SimProcess> sim_;
+    std::unique_ptr<Child> roudi_;
     std::unique_ptr<Child> daemon_;
 };
 
@@ -162,6 +194,52 @@ TEST_F(Access, TheSharedMemoryRefusesAViewerThatAsksIcoryxDirectly) {
     EXPECT_EQ(writes.find("0xFA51=888"), std::string::npos) << writes;
 }
 
+// The segments are files in /dev/shm that a process may try to open(2) itself, around
+// iceoryx: the publications segment (named after its writer, the daemon's group) and the
+// request segment (named after the control group).
+TEST_F(Access, AViewerCannotOpenASegmentForWriting) {
+    const std::string publications = std::string("/dev/shm/") + kDaemonGroup;
+    const std::string requests = std::string("/dev/shm/") + kControl;
+    const auto open_as = [&](const char* user, const std::string& path, const char* mode) {
+        return run_program(as(user, {OPEN_FILE_PATH, path, mode}));
+    };
+    for (const auto& path : {publications, requests}) {
+        const auto [status, out] = open_as(kViewer, path, "rw");
+        EXPECT_EQ(status, 1) << path << ": " << out;
+        EXPECT_EQ(out, "EACCES\n") << path;
+    }
+    // The viewer still reads the publications; the operator writes requests but not publications.
+    EXPECT_EQ(open_as(kViewer, publications, "r").second, "opened\n");
+    EXPECT_EQ(open_as(kOperator, requests, "rw").second, "opened\n");
+    EXPECT_EQ(open_as(kOperator, publications, "rw").second, "EACCES\n");
+    // And through iceoryx, all goes on as before.
+    const auto [watched, watch_out] = client(kViewer, {"snapshots", "2"});
+    EXPECT_EQ(watched, 0) << watch_out;
+    const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "654"});
+    EXPECT_EQ(wrote, 0) << write_out;
+    EXPECT_EQ(sim_->command("get 1 FA51"), "ok 654");
+}
+
+// The same with the system RouDi: drivebusd, the same user, seals the segments it made.
+class AccessExternal : public Access {
+protected:
+    [[nodiscard]] bool external() const override { return true; }
+};
+
+TEST_F(AccessExternal, AViewerCannotOpenASegmentForWriting) {
+    EXPECT_NE(daemon_->output().find("system RouDi"), std::string::npos) << daemon_->output();
+    EXPECT_EQ(daemon_->output().find("warning"), std::string::npos) << daemon_->output();
+    for (const auto* segment : {kDaemonGroup, kControl}) {
+        const auto [status, out] = run_program(as(kViewer, {OPEN_FILE_PATH, std::string("/dev/shm/") + segment, "rw"}));
+        EXPECT_EQ(out, "EACCES\n") << segment;
+    }
+    const auto [watched, watch_out] = client(kViewer, {"snapshots", "2"});
+    EXPECT_EQ(watched, 0) << watch_out;
+    const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "432"});
+    EXPECT_EQ(wrote, 0) << write_out;
+    EXPECT_EQ(sim_->command("get 1 FA51"), "ok 432");
+}
+
 TEST_F(Access, AnotherEffectiveGroupIsToldWhichOneToUse) {
     // RouDi could not answer this process at all; the library says so at once.
     // In the watch group, but as a supplementary group only.
@@ -187,6 +265,48 @@ TEST_F(Access, AnOperatorWatchesAndCommands) {
     const auto [wrote, write_out] = client(kOperator, {"writes", "FA51", "321"});
     ASSERT_EQ(wrote, 0) << write_out;
     EXPECT_EQ(sim_->command("get 1 FA51"), "ok 321");
+}
+
+// An iox-roudi run as root and killed leaves its lock, socket and segments, root's, in the
+// sticky /tmp and /dev/shm, where drivebusd's user may not replace them. drivebusd says in
+// one line what to remove, instead of iceoryx's raw error.
+TEST(StaleRouDi, TheDaemonSaysWhatToRemove) {
+    if (::geteuid() != 0) {
+        GTEST_SKIP() << "needs root to leave root's files and run drivebusd as another user";
+    }
+    for (const auto* g : {kWatch, kControl, kDaemonGroup}) {
+        ensure_group(g);
+    }
+    ensure_user(kDaemonUser, kDaemonGroup);
+    ASSERT_FALSE(roudi_file_exists()) << "a RouDi runs already";
+    const std::vector<fs::path> left = {"/tmp/iox-unique-roudi.lock", "/dev/shm/iceoryx_mgmt"};
+    for (const auto& path : left) {
+        ASSERT_FALSE(fs::exists(path)) << path << " is there already";
+        std::ofstream{path};
+        fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write);
+    }
+    const auto dir = fs::temp_directory_path() / ("drivebus-stale-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    fs::permissions(dir, fs::perms::all);
+    const auto config = dir / "drivebusd.toml";
+    std::ofstream(config) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
+                          << "[ipc]\nroudi = \"embedded\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
+                          << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
+                          << "[[bus]]\nname = \"stale\"\ndevice = \"/dev/ttyDOESNOTEXIST\"\nparity = \"none\"\n"
+                             "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n";
+    fs::permissions(config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
+    const auto [status, out] = run_program(
+        as(kDaemonUser, {DRIVEBUSD_PATH, "--config", config.string(), "--profile-dir", DRIVEBUS_PROFILE_DIR}));
+    std::error_code ec;
+    for (const auto& path : left) {
+        fs::remove(path, ec);
+    }
+    fs::remove_all(dir, ec);
+    EXPECT_EQ(status, 1) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_NE(out.find("a RouDi of user root left files"), std::string::npos) << out;
+    EXPECT_NE(out.find("sudo rm /tmp/iox-unique-roudi.lock /dev/shm/iceoryx_mgmt"), std::string::npos) << out;
+    EXPECT_EQ(out.find("iceoryx"), out.find("iceoryx_mgmt")) << "a raw iceoryx line: " << out;
 }
 
 }  // namespace
