@@ -51,6 +51,15 @@ void BusEngine::line_down(rtu::Instant now) {
     }
     transmitting_ = false;
     scheduler_.line_down(now);
+    // Waiting client requests are answered now, not sent whenever the line comes back.
+    for (const Job& job : scheduler_.take_client_jobs()) {
+        Result down;
+        down.outcome = Outcome::BusDown;
+        down.finished = now;
+        if (callbacks_.client_result) {
+            callbacks_.client_result(job.correlation, down);
+        }
+    }
     ++status_.sequence;
 }
 

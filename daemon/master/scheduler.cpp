@@ -449,6 +449,18 @@ void Scheduler::line_down(rtu::Instant /*now*/) {
     }
 }
 
+std::vector<Job> Scheduler::take_client_jobs() {
+    std::vector<Job> jobs;
+    for (auto* queues : {&writes_, &reads_}) {
+        for (auto& [client, queue] : *queues) {
+            jobs.insert(jobs.end(), queue.begin(), queue.end());
+        }
+        queues->clear();
+    }
+    queued_ = 0;
+    return jobs;
+}
+
 void Scheduler::line_up(rtu::Instant now) {
     line_up_ = true;
     for (Drive& d : drives_) {
@@ -459,9 +471,8 @@ void Scheduler::line_up(rtu::Instant now) {
     }
 }
 
-DriveSnapshot Scheduler::snapshot(std::size_t drive) const {
+void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     const Drive& d = drives_[drive];
-    DriveSnapshot s;
     s.bus = bus_.name;
     s.name = d.config->name;
     s.address = d.config->address;
@@ -470,7 +481,6 @@ DriveSnapshot Scheduler::snapshot(std::size_t drive) const {
     s.registers = d.values;
     s.counters = d.counters;
     s.sequence = d.sequence;
-    return s;
 }
 
 }  // namespace drivebus::master

@@ -68,9 +68,18 @@ public:
     // The line went down: everything in flight is abandoned; polls restart when it is back.
     void line_down(rtu::Instant now);
     void line_up(rtu::Instant now);
+    // Empties the client queues and returns what they held (the line went down: each waiting
+    // request is answered now rather than sent whenever the line comes back).
+    [[nodiscard]] std::vector<Job> take_client_jobs();
 
     [[nodiscard]] std::size_t drive_count() const noexcept { return drives_.size(); }
-    [[nodiscard]] DriveSnapshot snapshot(std::size_t drive) const;
+    // Fills `out` without allocating (the bus thread calls it every poll cycle).
+    void snapshot(std::size_t drive, DriveSnapshot& out) const noexcept;
+    [[nodiscard]] DriveSnapshot snapshot(std::size_t drive) const noexcept {
+        DriveSnapshot s;
+        snapshot(drive, s);
+        return s;
+    }
     [[nodiscard]] Health health(std::size_t drive) const noexcept { return drives_[drive].health; }
     [[nodiscard]] std::size_t queued() const noexcept { return queued_; }
     // The drive at `address`, if configured.
@@ -96,7 +105,7 @@ private:
         rtu::Instant last_contact{};
         rtu::Duration backoff{};
         rtu::Instant next_probe{};
-        std::map<std::uint16_t, RegisterValue> values;
+        RegisterTable values;
         DriveCounters counters;
         std::uint64_t sequence = 0;
     };
