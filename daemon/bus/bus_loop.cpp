@@ -40,7 +40,7 @@ public:
           handover_(outer.handover_),
           status_(outer.status_),
           timing_(rtu::character_timing(bus.format).value()),
-          engine_(bus, timing_, to_handover(callbacks, outer.handover_), sys::now()),
+          engine_(bus, timing_, to_handover(callbacks), sys::now()),
           uart_(serial::kernel_uart_control()),
           heartbeat_(outer.heartbeat_),
           wake_(outer.wake_.get()) {
@@ -69,21 +69,94 @@ public:
 private:
     // The engine's results and snapshots go to the hand-over rings, and to the caller's
     // callbacks if it gave any.
-    static master::EngineCallbacks to_handover(const master::EngineCallbacks& user, Handover& handover) {
+    master::EngineCallbacks to_handover(const master::EngineCallbacks& user) {
         master::EngineCallbacks c;
-        c.snapshot = [&handover, user = user.snapshot](const master::DriveSnapshot& s) {
-            handover.put(s);
+        c.snapshot = [this, user = user.snapshot](const master::DriveSnapshot& s) {
+            handover_.put(s);
             if (user) {
                 user(s);
             }
         };
-        c.client_result = [&handover, user = user.client_result](std::uint64_t id, const master::Result& r) {
-            handover.put(finished(id, r));
+        c.client_result = [this, user = user.client_result](std::uint64_t id, const master::Result& r) {
+            if (!fallback_finished(id, r)) {
+                return;  // retried
+            }
+            handover_.put(finished(id, r));
             if (user) {
                 user(id, r);
             }
         };
         return c;
+    }
+
+    // ---- lease fallbacks ----
+
+    // A fallback write waits in its drive's own slot, ahead of every client queue, whatever
+    // the line's state; it is never refused for room (one per drive).
+    void take_fallback(const master::ClientRequest& request) {
+        const auto drive = engine_.scheduler().drive_at(request.request.address);
+        if (!drive) {
+            handover_.put(refused(request.correlation, Refusal::UnknownDrive));
+            return;
+        }
+        auto& f = fallbacks_[*drive];
+        if (f.request || !engine_.submit(request)) {
+            handover_.put(refused(request.correlation, Refusal::QueueFull));  // one already waits
+            return;
+        }
+        f = Fallback{request, false, {}};
+    }
+
+    // False when `id` is a fallback that is tried again: the drive did not acknowledge it and
+    // is not absent. An exception is the drive's answer: no use repeating it.
+    bool fallback_finished(std::uint64_t id, const master::Result& r) {
+        for (std::size_t d = 0; d < fallbacks_.size(); ++d) {
+            auto& f = fallbacks_[d];
+            if (!f.request || f.request->correlation != id) {
+                continue;
+            }
+            if (r.outcome == master::Outcome::Ok || r.outcome == master::Outcome::Exception) {
+                f.request.reset();
+                return true;
+            }
+            log::error("bus " + bus_.name + " drive " + bus_.drives[d].name +
+                       ": the fallback write was not acknowledged (" + std::string(master::to_string(r.outcome)) +
+                       "); retrying");
+            f.retry = true;
+            f.retry_at = r.finished + bus_.response_timeout;  // meanwhile the polls find out whether it is absent
+            return false;
+        }
+        return true;
+    }
+
+    void retry_fallbacks(rtu::Instant now) {
+        for (std::size_t d = 0; d < fallbacks_.size(); ++d) {
+            auto& f = fallbacks_[d];
+            if (!f.retry || now < f.retry_at) {
+                continue;
+            }
+            f.retry = false;
+            if (engine_.scheduler().health(d) == master::Health::Absent) {
+                log::error("bus " + bus_.name + " drive " + bus_.drives[d].name +
+                           ": absent; its fallback write is given up");
+                master::Result gone;
+                gone.finished = now;
+                handover_.put(finished(f.request->correlation, gone));
+                f.request.reset();
+                continue;
+            }
+            (void)engine_.submit(*f.request);  // its slot is free: it was just taken out of it
+        }
+    }
+
+    [[nodiscard]] std::optional<rtu::Instant> next_fallback_retry() const {
+        std::optional<rtu::Instant> next;
+        for (const auto& f : fallbacks_) {
+            if (f.retry && (!next || f.retry_at < *next)) {
+                next = f.retry_at;
+            }
+        }
+        return next;
     }
 
     // Every request taken off the ring is either the engine's now or answered now: the ipc
@@ -97,6 +170,10 @@ private:
         }
         master::ClientRequest request;
         while (handover_.requests.try_pop(request)) {
+            if (request.fallback) {
+                take_fallback(request);
+                continue;
+            }
             if (!engine_.up()) {
                 handover_.put(refused(request.correlation, Refusal::BusDown));
                 continue;
@@ -209,6 +286,8 @@ private:
     // ---- the engine ----
 
     void drive() {
+        // Every wake-up ends here: what it handed over wakes the ipc side once, on the way out.
+        const Flush flush{handover_};
         heartbeat_.fetch_add(1, std::memory_order_relaxed);
         rtu::Instant now = sys::now();
         if (!port_) {
@@ -216,6 +295,7 @@ private:
                 try_open();
             }
         }
+        retry_fallbacks(now);
         engine_.on_time(now);
         if (port_ && tracker_ && tracker_->busy() && now >= tracker_->next_check()) {
             if (const auto done = tracker_->check(now)) {
@@ -327,6 +407,7 @@ private:
         if (!port_) {
             consider(reopen_at_);
         }
+        consider(next_fallback_retry());
         // The loop goes round at least this often, so that its heartbeat shows it is alive
         // even on a quiet bus (the service watchdog watches it).
         const rtu::Instant now = sys::now();
@@ -346,6 +427,16 @@ private:
         timer_.arm(*wake);
         armed_ = wake;
     }
+
+    struct Flush {
+        explicit Flush(Handover& h) noexcept : handover(h) {}
+        Handover& handover;
+        Flush(const Flush&) = delete;
+        Flush& operator=(const Flush&) = delete;
+        Flush(Flush&&) = delete;
+        Flush& operator=(Flush&&) = delete;
+        ~Flush() { handover.flush(); }
+    };
 
     static constexpr rtu::Duration kLivenessTick = std::chrono::milliseconds(500);
 
@@ -388,6 +479,13 @@ private:
     std::optional<rtu::Instant> written_at_;
     log::RateLimited limiter_{std::chrono::seconds(60)};
     std::atomic<bool> stopping_{false};
+
+    struct Fallback {
+        std::optional<master::ClientRequest> request;  // waiting, on the wire, or to be retried
+        bool retry = false;
+        rtu::Instant retry_at{};
+    };
+    std::vector<Fallback> fallbacks_ = std::vector<Fallback>(bus_.drives.size());  // one slot per drive
 };
 
 namespace {

@@ -30,17 +30,21 @@ void Handover::put(const Finished& f) noexcept {
     if (!results.try_push(f)) {
         results_lost.fetch_add(1, std::memory_order_relaxed);
     }
-    notify();
+    unflushed_ = true;
 }
 
 void Handover::put(const master::DriveSnapshot& s) noexcept {
     if (!snapshots.try_push(s)) {
         snapshots_dropped.fetch_add(1, std::memory_order_relaxed);
     }
-    notify();
+    unflushed_ = true;
 }
 
-void Handover::notify() const noexcept {
+void Handover::flush() noexcept {
+    if (!unflushed_) {
+        return;
+    }
+    unflushed_ = false;
     const std::uint64_t one = 1;
     // Cannot block (non-blocking eventfd) and cannot fail short of a counter overflow.
     [[maybe_unused]] const auto n = ::write(ready_.get(), &one, sizeof one);

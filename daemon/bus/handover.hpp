@@ -33,17 +33,20 @@ public:
     std::atomic<std::uint64_t> snapshots_dropped{0};
     std::atomic<std::uint64_t> results_lost{0};
 
-    // Bus thread: hand over a result or a snapshot and wake the ipc side.
+    // Bus thread: hand over a result or a snapshot; flush() then wakes the ipc side, once for
+    // all that was put, when the bus thread has done its work and is about to wait (waking
+    // another thread in the middle of it could hand that thread the CPU first).
     void put(const Finished& f) noexcept;
     void put(const master::DriveSnapshot& s) noexcept;
+    void flush() noexcept;
 
     // The ipc side waits for this fd to be readable, then calls acknowledge() and drains.
     [[nodiscard]] int ready_fd() const noexcept { return ready_.get(); }
     void acknowledge() const noexcept;
 
 private:
-    void notify() const noexcept;
     sys::UniqueFd ready_;
+    bool unflushed_ = false;  // the bus thread's own
 };
 
 }  // namespace drivebus::bus

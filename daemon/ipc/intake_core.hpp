@@ -76,7 +76,7 @@ public:
     bool submit_own(std::size_t drive, const rtu::RequestAdu& write) {
         Origin own{0, 0, "drivebusd fallback", shm::RequestKind::Write, drive};
         const auto id = book_.book_own(own);
-        if (submit_(master::ClientRequest{0, id, write, false})) {
+        if (submit_(master::ClientRequest{0, id, write, false, true})) {
             return true;
         }
         (void)book_.finish(id);

@@ -130,6 +130,16 @@ std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
     } else {
         return std::unexpected(SubmitError::UnknownDrive);
     }
+    if (request.fallback) {
+        if (job.drive == kNoDrive) {
+            return std::unexpected(SubmitError::UnknownDrive);
+        }
+        if (drives_[job.drive].fallback) {
+            return std::unexpected(SubmitError::QueueFull);
+        }
+        drives_[job.drive].fallback = std::move(job);
+        return {};
+    }
     if (queued_ >= bus_.queue_limit) {
         return std::unexpected(SubmitError::QueueFull);
     }
@@ -149,10 +159,25 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
             return job;
         }
     } else {
+        if (auto job = next_fallback()) {
+            return job;
+        }
         if (auto job = next_setup()) {
             return job;
         }
-        if (auto job = next_client()) {
+        if (auto job = take_client({&writes_})) {
+            return job;
+        }
+        // A due poll goes between two client reads: a flood of reads cannot starve the polls
+        // (and leave every snapshot stale).
+        if (last_was_read_) {
+            if (auto job = next_poll(now)) {
+                last_was_read_ = false;
+                return job;
+            }
+        }
+        if (auto job = next_client_read()) {
+            last_was_read_ = true;
             return job;
         }
     }
@@ -187,10 +212,6 @@ std::optional<Job> Scheduler::next_client_read() {
     return take_client({&reads_});
 }
 
-std::optional<Job> Scheduler::next_client() {
-    return take_client({&writes_, &reads_});
-}
-
 std::optional<Job> Scheduler::take_client(std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order) {
     for (auto* queues : order) {
         if (queues->empty()) {
@@ -209,6 +230,15 @@ std::optional<Job> Scheduler::take_client(std::initializer_list<std::map<std::ui
         }
         --queued_;
         return job;
+    }
+    return std::nullopt;
+}
+
+std::optional<Job> Scheduler::next_fallback() {
+    for (Drive& drive : drives_) {
+        if (drive.fallback) {
+            return std::exchange(drive.fallback, std::nullopt);
+        }
     }
     return std::nullopt;
 }
@@ -328,7 +358,7 @@ std::optional<rtu::Instant> Scheduler::next_due() const {
             due = t;
         }
     };
-    if (queued_ > 0) {
+    if (queued_ > 0 || std::ranges::any_of(drives_, [](const Drive& d) { return d.fallback.has_value(); })) {
         return rtu::Instant::min();
     }
     for (const Drive& drive : drives_) {

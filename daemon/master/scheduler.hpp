@@ -34,6 +34,9 @@ struct ClientRequest {
     rtu::RequestAdu request;
     // A probe (drivebusctl scan): any address, configured or not, tried once.
     bool probe = false;
+    // drivebusd's lease fallback: the drive's own slot, ahead of every client queue and
+    // outside the queue limit (one per drive).
+    bool fallback = false;
 };
 
 struct Job {
@@ -55,7 +58,8 @@ class Scheduler {
 public:
     Scheduler(const config::BusConfig& bus, rtu::Instant start);
 
-    // A client request; validated by the caller. Rejected when the queue is full.
+    // A client request; validated by the caller. Rejected when the queue is full (a fallback:
+    // when its drive's slot is taken).
     std::expected<void, SubmitError> submit(ClientRequest request);
     // The job to send now, if any. With `reads_only`, writes wait (set-up and client writes):
     // a read's echo tells whether the adapter echoes, a write's (FC06) may not.
@@ -108,12 +112,13 @@ private:
         RegisterTable values;
         DriveCounters counters;
         std::uint64_t sequence = 0;
+        std::optional<Job> fallback;  // sent before anything else on the bus
     };
 
-    [[nodiscard]] std::optional<Job> next_client();
     [[nodiscard]] std::optional<Job> next_client_read();
     [[nodiscard]] std::optional<Job> take_client(
         std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order);
+    [[nodiscard]] std::optional<Job> next_fallback();
     [[nodiscard]] std::optional<Job> next_setup();
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_keep_alive(rtu::Instant now);
@@ -130,6 +135,7 @@ private:
     std::map<std::uint64_t, std::deque<Job>> writes_;
     std::map<std::uint64_t, std::deque<Job>> reads_;
     std::uint64_t last_client_ = 0;
+    bool last_was_read_ = false;  // the last job was a client read: a due poll goes next
     std::size_t queued_ = 0;
 };
 

@@ -219,6 +219,34 @@ TEST(Ipc, ALeaseThatRunsOutStopsTheDrive_HungClient) {
     expect_fallback_stops(stack, holder, false);
 }
 
+// The fallback write has its own slot ahead of every client queue: with other clients
+// flooding reads, a SIGKILLed holder's drive still gets its stop word (FA00 = 0xC000, the
+// ATV21 profile's ramp stop), checked in the simulator, six times in a row. The lease
+// snapshot keeps its last holder and the drive's register values.
+TEST(Ipc, TheFallbackWriteIsNeverLostUnderAFlood) {
+    StackOptions options;
+    options.drive_extra = "  lease = \"300ms\"\n  fallback = \"stop\"\n";
+    Stack stack(options);
+    std::vector<std::unique_ptr<Client>> floods;
+    for (int i = 0; i < 4; ++i) {
+        floods.push_back(std::make_unique<Client>(std::vector<std::string>{stack.bus(), "flood", "FD01"}));
+        ASSERT_TRUE(floods.back()->printed("ready", 10s)) << floods.back()->output();
+    }
+    for (int round = 0; round < 6; ++round) {
+        Client holder({stack.bus(), "command", "30"});
+        ASSERT_TRUE(holder.printed("holding", 10s)) << "round " << round << ": " << holder.output();
+        ASSERT_EQ(stack.sim_register(1, "FA00"), 0xC400) << "round " << round;
+        holder.kill9();
+        ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == 0xC000; }, 10s))
+            << "round " << round << ": FA00 = " << stack.sim_register(1, "FA00") << "\n"
+            << stack.daemon_output();
+    }
+    Client lease({stack.bus(), "lease"});
+    ASSERT_EQ(lease.wait(10s), 0) << lease.output();
+    EXPECT_NE(lease.output().find("lease expired holder kept fallback_ok 1 registers 7"), std::string::npos)
+        << lease.output();
+}
+
 TEST(Ipc, ALiveLeaseKeepsTheDriveRunningAndShutsOutOtherWriters) {
     StackOptions options;
     options.drive_extra = "  lease = \"300ms\"\n";
