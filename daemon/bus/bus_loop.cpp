@@ -9,6 +9,7 @@
 #include <future>
 #include <stdexcept>
 
+#include "bus/desk.hpp"
 #include "log/log.hpp"
 #include "rt/realtime.hpp"
 #include "serial/direction.hpp"
@@ -40,10 +41,12 @@ public:
           handover_(outer.handover_),
           status_(outer.status_),
           timing_(rtu::character_timing(bus.format).value()),
-          engine_(bus, timing_, to_handover(callbacks), sys::now()),
+          desk_(bus, outer.handover_),
+          engine_(bus, timing_, desk_.callbacks(callbacks), sys::now()),
           uart_(serial::kernel_uart_control()),
           heartbeat_(outer.heartbeat_),
           wake_(outer.wake_.get()) {
+        desk_.attach(engine_);
         loop_.add(wake_, [this] { on_wake(); });
         loop_.add(timer_.fd(), [this] {
             timer_.acknowledge();
@@ -67,100 +70,6 @@ public:
     }
 
 private:
-    // The engine's results and snapshots go to the hand-over rings, and to the caller's
-    // callbacks if it gave any.
-    master::EngineCallbacks to_handover(const master::EngineCallbacks& user) {
-        master::EngineCallbacks c;
-        c.snapshot = [this, user = user.snapshot](const master::DriveSnapshot& s) {
-            handover_.put(s);
-            if (user) {
-                user(s);
-            }
-        };
-        c.client_result = [this, user = user.client_result](std::uint64_t id, const master::Result& r) {
-            if (!fallback_finished(id, r)) {
-                return;  // retried
-            }
-            handover_.put(finished(id, r));
-            if (user) {
-                user(id, r);
-            }
-        };
-        return c;
-    }
-
-    // ---- lease fallbacks ----
-
-    // A fallback write waits in its drive's own slot, ahead of every client queue, whatever
-    // the line's state; it is never refused for room (one per drive).
-    void take_fallback(const master::ClientRequest& request) {
-        const auto drive = engine_.scheduler().drive_at(request.request.address);
-        if (!drive) {
-            handover_.put(refused(request.correlation, Refusal::UnknownDrive));
-            return;
-        }
-        auto& f = fallbacks_[*drive];
-        if (f.request || !engine_.submit(request)) {
-            handover_.put(refused(request.correlation, Refusal::QueueFull));  // one already waits
-            return;
-        }
-        f = Fallback{request, false, {}};
-    }
-
-    // False when `id` is a fallback that is tried again: the drive did not acknowledge it and
-    // is not absent. An exception is the drive's answer: no use repeating it.
-    bool fallback_finished(std::uint64_t id, const master::Result& r) {
-        for (std::size_t d = 0; d < fallbacks_.size(); ++d) {
-            auto& f = fallbacks_[d];
-            if (!f.request || f.request->correlation != id) {
-                continue;
-            }
-            if (r.outcome == master::Outcome::Ok || r.outcome == master::Outcome::Exception) {
-                f.request.reset();
-                return true;
-            }
-            log::error("bus " + bus_.name + " drive " + bus_.drives[d].name +
-                       ": the fallback write was not acknowledged (" + std::string(master::to_string(r.outcome)) +
-                       "); retrying");
-            f.retry = true;
-            f.retry_at = r.finished + bus_.response_timeout;  // meanwhile the polls find out whether it is absent
-            return false;
-        }
-        return true;
-    }
-
-    void retry_fallbacks(rtu::Instant now) {
-        for (std::size_t d = 0; d < fallbacks_.size(); ++d) {
-            auto& f = fallbacks_[d];
-            if (!f.retry || now < f.retry_at) {
-                continue;
-            }
-            f.retry = false;
-            if (engine_.scheduler().health(d) == master::Health::Absent) {
-                log::error("bus " + bus_.name + " drive " + bus_.drives[d].name +
-                           ": absent; its fallback write is given up");
-                master::Result gone;
-                gone.finished = now;
-                handover_.put(finished(f.request->correlation, gone));
-                f.request.reset();
-                continue;
-            }
-            (void)engine_.submit(*f.request);  // its slot is free: it was just taken out of it
-        }
-    }
-
-    [[nodiscard]] std::optional<rtu::Instant> next_fallback_retry() const {
-        std::optional<rtu::Instant> next;
-        for (const auto& f : fallbacks_) {
-            if (f.retry && (!next || f.retry_at < *next)) {
-                next = f.retry_at;
-            }
-        }
-        return next;
-    }
-
-    // Every request taken off the ring is either the engine's now or answered now: the ipc
-    // side frees its entry only when an answer comes back.
     void on_wake() {
         std::uint64_t count = 0;
         [[maybe_unused]] const auto n = ::read(wake_, &count, sizeof count);
@@ -168,22 +77,7 @@ private:
             loop_.stop();
             return;
         }
-        master::ClientRequest request;
-        while (handover_.requests.try_pop(request)) {
-            if (request.fallback) {
-                take_fallback(request);
-                continue;
-            }
-            if (!engine_.up()) {
-                handover_.put(refused(request.correlation, Refusal::BusDown));
-                continue;
-            }
-            if (auto taken = engine_.submit(request); !taken) {
-                handover_.put(refused(request.correlation, taken.error() == master::SubmitError::QueueFull
-                                                                ? Refusal::QueueFull
-                                                                : Refusal::UnknownDrive));
-            }
-        }
+        desk_.take_requests();
         drive();
     }
 
@@ -295,7 +189,7 @@ private:
                 try_open();
             }
         }
-        retry_fallbacks(now);
+        desk_.retry_fallbacks(now);
         engine_.on_time(now);
         if (port_ && tracker_ && tracker_->busy() && now >= tracker_->next_check()) {
             if (const auto done = tracker_->check(now)) {
@@ -407,7 +301,7 @@ private:
         if (!port_) {
             consider(reopen_at_);
         }
-        consider(next_fallback_retry());
+        consider(desk_.next_retry());
         // The loop goes round at least this often, so that its heartbeat shows it is alive
         // even on a quiet bus (the service watchdog watches it).
         const rtu::Instant now = sys::now();
@@ -465,6 +359,7 @@ private:
     Handover& handover_;
     sys::Seqlock<StatusCopy>& status_;
     rtu::CharacterTiming timing_;
+    Desk desk_;
     master::BusEngine engine_;
     std::unique_ptr<serial::UartControl> uart_;
     std::atomic<std::uint64_t>& heartbeat_;
@@ -479,13 +374,6 @@ private:
     std::optional<rtu::Instant> written_at_;
     log::RateLimited limiter_{std::chrono::seconds(60)};
     std::atomic<bool> stopping_{false};
-
-    struct Fallback {
-        std::optional<master::ClientRequest> request;  // waiting, on the wire, or to be retried
-        bool retry = false;
-        rtu::Instant retry_at{};
-    };
-    std::vector<Fallback> fallbacks_ = std::vector<Fallback>(bus_.drives.size());  // one slot per drive
 };
 
 namespace {

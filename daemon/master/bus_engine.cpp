@@ -195,8 +195,9 @@ std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now) {
         if (!job) {
             return std::nullopt;
         }
-        const rtu::FunctionLimits limits =
-            job->drive == kNoDrive ? rtu::FunctionLimits::modbus_spec() : scheduler_.limits(job->drive);
+        // By reference: a copy would allocate (its block windows) on every transaction.
+        static const rtu::FunctionLimits kSpec = rtu::FunctionLimits::modbus_spec();
+        const rtu::FunctionLimits& limits = job->drive == kNoDrive ? kSpec : scheduler_.limits(job->drive);
         auto adu = rtu::encode_request(job->request, limits);
         if (!adu) {
             // Requests are validated before they are queued; this one is dropped, not sent.

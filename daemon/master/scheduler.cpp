@@ -5,8 +5,6 @@
 namespace drivebus::master {
 namespace {
 
-constexpr rtu::FunctionCode kRead = rtu::FunctionCode::ReadHoldingRegisters;
-
 // The register a keep-alive or probe reads: the first polled one, or the first readable
 // register of the profile.
 std::optional<std::uint16_t> keep_alive_register(const config::DriveConfig& drive) {
@@ -24,53 +22,6 @@ std::optional<std::uint16_t> keep_alive_register(const config::DriveConfig& driv
 }
 
 }  // namespace
-
-rtu::FunctionLimits limits_of(const Profile& profile) {
-    rtu::FunctionLimits limits;
-    limits.max_address = profile.address_max;
-    limits.max_read = profile.functions.read_holding_max;
-    limits.max_write = profile.functions.write_multiple_max;
-    limits.write_single = profile.functions.write_single;
-    limits.device_identification = profile.functions.device_identification;
-    const auto& broadcast = profile.functions.broadcast;
-    limits.broadcast_write_single = std::ranges::find(broadcast, std::uint8_t{6}) != broadcast.end();
-    limits.broadcast_write_multiple = std::ranges::find(broadcast, std::uint8_t{16}) != broadcast.end();
-    for (const auto& block : profile.indirect_blocks) {
-        limits.windows.push_back({block.function == 3 ? kRead : rtu::FunctionCode::WriteMultipleRegisters,
-                                  block.address, block.min_quantity, block.max_quantity});
-    }
-    return limits;
-}
-
-std::vector<ReadChunk> plan_reads(const config::PollGroup& group, const Profile& profile,
-                                  const rtu::FunctionLimits& limits) {
-    std::vector<ReadChunk> chunks;
-    if (group.indirect) {
-        if (const IndirectBlock* block = profile.block(3)) {
-            ReadChunk chunk{block->address, static_cast<std::uint16_t>(group.registers.size()), {}};
-            for (const auto& r : group.registers) {
-                chunk.addresses.push_back(r.address);
-            }
-            chunks.push_back(std::move(chunk));
-        }
-        return chunks;
-    }
-    // Consecutive registers share a transaction up to the drive's plain read limit.
-    const std::uint16_t max = std::max<std::uint16_t>(1, limits.max_read);
-    for (const auto& r : group.registers) {
-        if (!chunks.empty()) {
-            ReadChunk& last = chunks.back();
-            if (r.address == static_cast<std::uint16_t>(last.start + last.quantity) && last.quantity < max &&
-                last.start + last.quantity <= 0xFFFF) {
-                ++last.quantity;
-                last.addresses.push_back(r.address);
-                continue;
-            }
-        }
-        chunks.push_back(ReadChunk{r.address, 1, {r.address}});
-    }
-    return chunks;
-}
 
 Scheduler::Scheduler(const config::BusConfig& bus, rtu::Instant start) : bus_(bus) {
     for (const auto& d : bus.drives) {
@@ -112,42 +63,6 @@ std::optional<std::size_t> Scheduler::drive_at(rtu::SlaveAddress address) const 
         }
     }
     return std::nullopt;
-}
-
-std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
-    Job job;
-    job.kind = JobKind::Client;
-    job.client = request.client;
-    job.correlation = request.correlation;
-    job.request = request.request;
-    if (request.request.address == rtu::kBroadcastAddress) {
-        job.drive = kNoDrive;
-    } else if (request.probe) {
-        job.drive = kNoDrive;  // no drive's counters or health: it may not be configured
-        job.retries = 0;
-    } else if (const auto d = drive_at(request.request.address)) {
-        job.drive = *d;
-    } else {
-        return std::unexpected(SubmitError::UnknownDrive);
-    }
-    if (request.fallback) {
-        if (job.drive == kNoDrive) {
-            return std::unexpected(SubmitError::UnknownDrive);
-        }
-        if (drives_[job.drive].fallback) {
-            return std::unexpected(SubmitError::QueueFull);
-        }
-        drives_[job.drive].fallback = std::move(job);
-        return {};
-    }
-    if (queued_ >= bus_.queue_limit) {
-        return std::unexpected(SubmitError::QueueFull);
-    }
-    const bool write = !std::holds_alternative<rtu::ReadHoldingRegisters>(request.request.pdu) &&
-                       !std::holds_alternative<rtu::ReadDeviceIdentification>(request.request.pdu);
-    (write ? writes_ : reads_)[request.client].push_back(std::move(job));
-    ++queued_;
-    return {};
 }
 
 std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
@@ -203,41 +118,6 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
                 job.request = {drives_[d].config->address, rtu::ReadHoldingRegisters{*reg, 1}};
                 return job;
             }
-        }
-    }
-    return std::nullopt;
-}
-
-std::optional<Job> Scheduler::next_client_read() {
-    return take_client({&reads_});
-}
-
-std::optional<Job> Scheduler::take_client(std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order) {
-    for (auto* queues : order) {
-        if (queues->empty()) {
-            continue;
-        }
-        // Round-robin: the first client after the one served last.
-        auto it = queues->upper_bound(last_client_);
-        if (it == queues->end()) {
-            it = queues->begin();
-        }
-        Job job = std::move(it->second.front());
-        it->second.pop_front();
-        last_client_ = it->first;
-        if (it->second.empty()) {
-            queues->erase(it);
-        }
-        --queued_;
-        return job;
-    }
-    return std::nullopt;
-}
-
-std::optional<Job> Scheduler::next_fallback() {
-    for (Drive& drive : drives_) {
-        if (drive.fallback) {
-            return std::exchange(drive.fallback, std::nullopt);
         }
     }
     return std::nullopt;
@@ -477,18 +357,6 @@ void Scheduler::line_down(rtu::Instant /*now*/) {
             g.cursor.reset();
         }
     }
-}
-
-std::vector<Job> Scheduler::take_client_jobs() {
-    std::vector<Job> jobs;
-    for (auto* queues : {&writes_, &reads_}) {
-        for (auto& [client, queue] : *queues) {
-            jobs.insert(jobs.end(), queue.begin(), queue.end());
-        }
-        queues->clear();
-    }
-    queued_ = 0;
-    return jobs;
 }
 
 void Scheduler::line_up(rtu::Instant now) {

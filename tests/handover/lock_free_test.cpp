@@ -22,7 +22,8 @@ std::string read(const std::string& path) {
 TEST(LockFree, NothingBetweenTheBusThreadAndTheIpcThreadTakesALock) {
     const std::array files = {
         "daemon/bus/bus_loop.hpp",    "daemon/bus/bus_loop.cpp",    "daemon/bus/handover.hpp",
-        "daemon/bus/handover.cpp",    "daemon/bus/finished.hpp",    "daemon/sys/spsc_ring.hpp",
+        "daemon/bus/handover.cpp",    "daemon/bus/finished.hpp",    "daemon/bus/desk.hpp",
+        "daemon/bus/desk.cpp",        "daemon/sys/spsc_ring.hpp",
         "daemon/sys/seqlock.hpp",     "daemon/ipc/bus_service.hpp", "daemon/ipc/bus_service.cpp",
         "daemon/ipc/intake.hpp",      "daemon/ipc/intake.cpp",      "daemon/ipc/intake_core.hpp",
         "daemon/ipc/pending.hpp",     "daemon/ipc/publisher.hpp",   "daemon/ipc/publisher.cpp",
