@@ -126,12 +126,16 @@ void write(Level level, std::string_view message) {
     print(level, message);
 }
 
-Ring::Ring(std::size_t capacity) : lines_(capacity) {
-    drainer().add(this);
+Ring::Ring(std::size_t capacity, bool drained) : lines_(capacity), drained_(drained) {
+    if (drained_) {
+        drainer().add(this);
+    }
 }
 
 Ring::~Ring() {
-    drainer().remove(this);
+    if (drained_) {
+        drainer().remove(this);
+    }
 }
 
 void Ring::use_on_this_thread() noexcept {

@@ -41,7 +41,8 @@ struct RingLine {
 // that thread has ended (what is left in it is written first).
 class Ring {
 public:
-    explicit Ring(std::size_t capacity = 256);
+    // `drained` false: not given to the drain thread; the owner calls drain() (tests).
+    explicit Ring(std::size_t capacity = 256, bool drained = true);
     ~Ring();
     Ring(const Ring&) = delete;
     Ring& operator=(const Ring&) = delete;
@@ -52,7 +53,8 @@ public:
     void use_on_this_thread() noexcept;
     // The producer side (the thread using it): false when full (the line is counted dropped).
     bool put(Level level, std::string_view message) noexcept;
-    // The drain thread's side: writes what is waiting.
+    // The consumer side (the drain thread, or the owner of an undrained ring): writes what is
+    // waiting.
     void drain();
 
     [[nodiscard]] std::uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
@@ -61,6 +63,7 @@ private:
     sys::SpscRing<RingLine> lines_;
     std::atomic<std::uint64_t> dropped_{0};
     std::uint64_t dropped_reported_ = 0;
+    bool drained_;
 };
 
 inline void error(std::string_view m) {
