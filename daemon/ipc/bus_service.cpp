@@ -93,7 +93,7 @@ struct BusService::Impl {
             }
         }
         if (status_due) {
-            publisher.status(loop.status(), intake.served(), leases.expiries());
+            publisher.status(loop.status(), {intake.served(), intake.queue_full(), leases.expiries()});
             status_due = false;
         }
         report_losses();
@@ -133,7 +133,7 @@ struct BusService::Impl {
         // Once a second, and at once when the line goes up or down.
         const bool up = loop.up();
         if (now >= next_status || up != last_up || status_due) {
-            publisher.status(loop.status(), intake.served(), leases.expiries());
+            publisher.status(loop.status(), {intake.served(), intake.queue_full(), leases.expiries()});
             next_status = now + kStatusInterval;
             status_due = false;
         }

@@ -112,6 +112,10 @@ std::uint64_t Intake::served() const noexcept {
     return impl_->core.served();
 }
 
+std::uint64_t Intake::queue_full() const noexcept {
+    return impl_->core.queue_full();
+}
+
 std::size_t Intake::in_flight() const noexcept {
     return impl_->core.book().size();
 }

@@ -35,6 +35,7 @@ public:
     [[nodiscard]] std::vector<std::size_t> take_republish();
 
     [[nodiscard]] std::uint64_t served() const noexcept;
+    [[nodiscard]] std::uint64_t queue_full() const noexcept;
     [[nodiscard]] std::size_t in_flight() const noexcept;
 
     struct Impl;

@@ -108,6 +108,8 @@ public:
     std::vector<std::size_t> take_republish() { return std::exchange(republish_, {}); }
     [[nodiscard]] const PendingBook<Route>& book() const noexcept { return book_; }
     [[nodiscard]] std::uint64_t served() const noexcept { return served_; }
+    // Requests answered QueueFull at the limit (the bus's own refusals are counted by the bus).
+    [[nodiscard]] std::uint64_t queue_full() const noexcept { return queue_full_; }
 
 private:
     static shm::Response response_shell(const Origin& who) {
@@ -121,6 +123,7 @@ private:
     shm::Response answer(const Origin& who, shm::Status status, shm::RejectReason reason = shm::RejectReason::None,
                          std::uint16_t address = 0, std::uint64_t holder = 0) {
         ++served_;
+        queue_full_ += status == shm::Status::QueueFull ? 1 : 0;
         auto r = response_shell(who);
         r.status = status;
         r.reason = reason;
@@ -142,6 +145,7 @@ private:
     PendingBook<Route> book_;
     std::vector<std::size_t> republish_;
     std::uint64_t served_ = 0;
+    std::uint64_t queue_full_ = 0;
 };
 
 }  // namespace drivebus::ipc

@@ -95,7 +95,7 @@ void Publisher::publish(std::size_t drive) {
     sample.value().publish();
 }
 
-void Publisher::status(const master::BusStatus& bus, std::uint64_t served, std::uint64_t lease_expiries) {
+void Publisher::status(const master::BusStatus& bus, const IpcCounts& counts) {
     auto sample = channels_->status.loan();
     if (sample.has_error()) {
         return;
@@ -108,8 +108,9 @@ void Publisher::status(const master::BusStatus& bus, std::uint64_t served, std::
     auto& out = *sample.value().get();
     fill_status(bus_, bus, health, out);
     shm::assign(out.control_group, control_group_);
-    out.counters.requests_served = served;
-    out.counters.lease_expiries = lease_expiries;
+    out.counters.requests_served = counts.served;
+    out.counters.queue_rejections += counts.queue_full;  // the bus's own refusals, and the intake's
+    out.counters.lease_expiries = counts.lease_expiries;
     sample.value().publish();
 }
 

@@ -35,7 +35,12 @@ public:
     // The drive's lease changed: its last snapshot again, with the new lease.
     void lease(std::size_t drive, const shm::LeaseStatus& lease);
     // The bus status, with what the ipc side counts.
-    void status(const master::BusStatus& bus, std::uint64_t served, std::uint64_t lease_expiries);
+    struct IpcCounts {
+        std::uint64_t served = 0;
+        std::uint64_t queue_full = 0;  // answered QueueFull at the intake's limit
+        std::uint64_t lease_expiries = 0;
+    };
+    void status(const master::BusStatus& bus, const IpcCounts& counts);
 
     // Any thread (systemd's status line).
     [[nodiscard]] std::size_t drives_online() const noexcept { return online_.load(std::memory_order_relaxed); }

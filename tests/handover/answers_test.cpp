@@ -155,6 +155,7 @@ TEST_F(Answers, AFloodOfManyClientsIsAnsweredRequestForRequest) {
         << "ok " << statuses[shm::Status::Ok] << ", queue full " << statuses[shm::Status::QueueFull];
     EXPECT_GE(statuses[shm::Status::Ok], 5U * config.queue_limit);
     EXPECT_EQ(loop->status().counters.queue_rejections, 0U) << "the one limit is the intake's";
+    EXPECT_EQ(intake->queue_full(), statuses[shm::Status::QueueFull]) << "and the intake counts what it refuses";
 }
 
 TEST_F(Answers, TheIntakeAnswersBusDownWithoutBookingWhenItKnowsTheLineIsDown) {
