@@ -11,7 +11,6 @@
 
 #include <CLI/CLI.hpp>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -178,34 +177,12 @@ int run_main(int argc, char** argv) {
             log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
                        "bus " + b.name + ": " + finding.text);
         }
-        auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout());
-        master::EngineCallbacks callbacks;
-        callbacks.client_result = [svc = service.get()](std::uint64_t correlation, const master::Result& result) {
-            svc->on_result(correlation, result);
-        };
-        // Runs on the bus thread: the map is that thread's alone.
-        callbacks.snapshot = [name = b.name, health = std::map<std::string, master::Health>{},
-                              limiter = std::make_shared<log::RateLimited>(),
-                              svc = service.get()](const master::DriveSnapshot& s) mutable {
-            svc->on_snapshot(s);
-            auto& last = health[s.name];
-            if (s.health == last) {
-                return;
-            }
-            const std::string key = name + "/" + s.name;
-            if (s.health == master::Health::Absent) {
-                limiter->write(log::Level::Warning, key,
-                               "bus " + name + " drive " + s.name + " (address " + std::to_string(s.address) +
-                                   "): absent, no reply after every retry; probing with back-off");
-            } else if (s.health == master::Health::Online && last == master::Health::Absent) {
-                log::notice("bus " + name + " drive " + s.name + ": answering again");
-            }
-            last = s.health;
-        };
+        // The bus thread and the ipc thread meet only in the loop's hand-over rings.
         bus::LoopOptions loop_options;
         loop_options.realtime = rt;
         loop_options.send_spin = rt.send_spin;
-        auto loop = std::make_unique<bus::BusLoop>(b, callbacks, std::move(loop_options));
+        auto loop = std::make_unique<bus::BusLoop>(b, master::EngineCallbacks{}, std::move(loop_options));
+        auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout(), *loop);
         if (auto started = loop->start(); !started) {
             log::error(started.error() + "; [realtime] mode is required");
             stop_all();
@@ -213,7 +190,7 @@ int run_main(int argc, char** argv) {
         }
         log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
                     std::to_string(b.drives.size()) + " drives");
-        service->start(*loop, [&rt, name = b.name] { service_thread_realtime(rt, name); });
+        service->start([&rt, name = b.name] { service_thread_realtime(rt, name); });
         loops.push_back(std::move(loop));
         services.push_back(std::move(service));
     }

@@ -6,9 +6,10 @@
 #include <unistd.h>
 
 #include <array>
-#include <deque>
 #include <future>
+#include <stdexcept>
 
+#include "bus/desk.hpp"
 #include "log/log.hpp"
 #include "rt/memory.hpp"
 #include "rt/realtime.hpp"
@@ -22,19 +23,32 @@ namespace drivebus::bus {
 
 using namespace std::chrono_literals;
 
+namespace {
+
+void poke(int eventfd) noexcept {
+    const std::uint64_t one = 1;
+    [[maybe_unused]] const auto n = ::write(eventfd, &one, sizeof one);
+}
+
+}  // namespace
+
 class BusLoop::Impl {
 public:
-    Impl(const config::BusConfig& bus, master::EngineCallbacks callbacks, const LoopOptions& options,
-         std::atomic<std::uint64_t>& heartbeat, std::atomic<bool>& up)
+    Impl(const config::BusConfig& bus, const master::EngineCallbacks& callbacks, const LoopOptions& options,
+         BusLoop& outer)
         : bus_(bus),
           options_(options),
-          up_(up),
+          up_(outer.up_),
+          handover_(outer.handover_),
+          status_(outer.status_),
           timing_(rtu::character_timing(bus.format).value()),
-          engine_(bus, timing_, std::move(callbacks), sys::now()),
+          desk_(bus, outer.handover_),
+          engine_(bus, timing_, desk_.callbacks(callbacks), sys::now()),
           uart_(serial::kernel_uart_control()),
-          heartbeat_(heartbeat),
-          wake_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
-        loop_.add(wake_.get(), [this] { on_wake(); });
+          heartbeat_(outer.heartbeat_),
+          wake_(outer.wake_.get()) {
+        desk_.attach(engine_);
+        loop_.add(wake_, [this] { on_wake(); });
         loop_.add(timer_.fd(), [this] {
             timer_.acknowledge();
             armed_.reset();
@@ -53,47 +67,18 @@ public:
 
     void request_stop() {
         stopping_ = true;
-        poke();
-    }
-
-    std::expected<void, master::SubmitError> submit(master::ClientRequest request) {
-        {
-            const std::lock_guard lock(mutex_);
-            if (inbox_.size() >= bus_.queue_limit) {
-                return std::unexpected(master::SubmitError::QueueFull);
-            }
-            inbox_.push_back(std::move(request));
-        }
-        poke();
-        return {};
-    }
-
-    master::BusStatus status() const {
-        const std::lock_guard lock(mutex_);
-        return status_copy_;
+        poke(wake_);
     }
 
 private:
-    void poke() {
-        const std::uint64_t one = 1;
-        [[maybe_unused]] const auto n = ::write(wake_.get(), &one, sizeof one);
-    }
-
     void on_wake() {
         std::uint64_t count = 0;
-        [[maybe_unused]] const auto n = ::read(wake_.get(), &count, sizeof count);
+        [[maybe_unused]] const auto n = ::read(wake_, &count, sizeof count);
         if (stopping_) {
             loop_.stop();
             return;
         }
-        std::deque<master::ClientRequest> requests;
-        {
-            const std::lock_guard lock(mutex_);
-            requests.swap(inbox_);
-        }
-        for (auto& r : requests) {
-            (void)engine_.submit(std::move(r));  // rejections are counted by the engine
-        }
+        desk_.take_requests();
         drive();
     }
 
@@ -202,6 +187,8 @@ private:
     // ---- the engine ----
 
     void drive() {
+        // Every wake-up ends here: what it handed over wakes the ipc side once, on the way out.
+        const Flush flush{handover_};
         heartbeat_.fetch_add(1, std::memory_order_relaxed);
         rtu::Instant now = sys::now();
         if (!port_) {
@@ -209,6 +196,7 @@ private:
                 try_open();
             }
         }
+        desk_.retry_fallbacks(now);
         engine_.on_time(now);
         if (port_ && tracker_ && tracker_->busy() && now >= tracker_->next_check()) {
             if (const auto done = tracker_->check(now)) {
@@ -232,7 +220,7 @@ private:
     // enabled before the write, released after the transmitter emptied.
     void log_edges(rtu::Instant tx_end) {
         const auto& edges = direction_->edges();
-        if (direction_->needs_release() && edges.size() >= 2 && written_at_) {
+        if (log::enabled(log::Level::Debug) && direction_->needs_release() && edges.size() >= 2 && written_at_) {
             const auto us = [](rtu::Duration d) { return std::to_string(d.count() / 1000); };
             const auto& on = edges[edges.size() - 2];
             const auto& off = edges.back();
@@ -323,6 +311,7 @@ private:
         if (!port_) {
             consider(reopen_at_);
         }
+        consider(desk_.next_retry());
         // The loop goes round at least this often, so that its heartbeat shows it is alive
         // even on a quiet bus (the service watchdog watches it).
         const rtu::Instant now = sys::now();
@@ -343,6 +332,16 @@ private:
         armed_ = wake;
     }
 
+    struct Flush {
+        explicit Flush(Handover& h) noexcept : handover(h) {}
+        Handover& handover;
+        Flush(const Flush&) = delete;
+        Flush& operator=(const Flush&) = delete;
+        Flush(Flush&&) = delete;
+        Flush& operator=(Flush&&) = delete;
+        ~Flush() { handover.flush(); }
+    };
+
     static constexpr rtu::Duration kLivenessTick = std::chrono::milliseconds(500);
 
     // Other threads read the status a few times a second; copying it on every wake-up (once
@@ -356,8 +355,7 @@ private:
         }
         next_status_copy_ = now + kStatusCopyInterval;
         status_copy_up_ = status.up;
-        const std::lock_guard lock(mutex_);
-        status_copy_ = status;
+        status_.store(StatusCopy{status.up, status.counters, status.reply_latency, status.extra_gap, status.sequence});
     }
 
     static constexpr rtu::Duration kStatusCopyInterval = std::chrono::milliseconds(5);
@@ -368,13 +366,16 @@ private:
     const config::BusConfig& bus_;
     const LoopOptions& options_;
     std::atomic<bool>& up_;
+    Handover& handover_;
+    sys::Seqlock<StatusCopy>& status_;
     rtu::CharacterTiming timing_;
+    Desk desk_;
     master::BusEngine engine_;
     std::unique_ptr<serial::UartControl> uart_;
     std::atomic<std::uint64_t>& heartbeat_;
     sys::EventLoop loop_;
     sys::Timer timer_;
-    sys::UniqueFd wake_;
+    int wake_;
     std::optional<serial::Port> port_;
     std::unique_ptr<serial::Direction> direction_;
     std::optional<serial::TransmitTracker> tracker_;
@@ -383,26 +384,39 @@ private:
     std::optional<rtu::Instant> written_at_;
     log::RateLimited limiter_{std::chrono::seconds(60)};
     std::atomic<bool> stopping_{false};
-
-    mutable std::mutex mutex_;
-    std::deque<master::ClientRequest> inbox_;
-    master::BusStatus status_copy_;
 };
 
+namespace {
+
+sys::UniqueFd make_eventfd() {
+    sys::UniqueFd fd(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
+    if (!fd) {
+        throw std::runtime_error("eventfd for the bus thread: refused by the kernel");
+    }
+    return fd;
+}
+
+}  // namespace
+
 BusLoop::BusLoop(const config::BusConfig& bus, master::EngineCallbacks callbacks, LoopOptions options)
-    : bus_(bus), callbacks_(std::move(callbacks)), options_(std::move(options)) {}
+    : bus_(bus),
+      callbacks_(std::move(callbacks)),
+      options_(std::move(options)),
+      handover_(bus.queue_limit, bus.drives.size()),
+      wake_(make_eventfd()) {}
 
 BusLoop::~BusLoop() {
     stop();
 }
 
 std::expected<void, std::string> BusLoop::start() {
-    impl_ = std::make_unique<Impl>(bus_, callbacks_, options_, heartbeat_, up_);
+    impl_ = std::make_unique<Impl>(bus_, callbacks_, options_, *this);
     std::promise<std::expected<void, std::string>> started;
     auto ready = started.get_future();
     thread_ = std::thread([this, &started] {
         // Named so that top -H and /proc/PID/task/*/comm tell the bus threads apart.
         (void)::pthread_setname_np(::pthread_self(), ("bus " + bus_.name).substr(0, 15).c_str());
+        log_.use_on_this_thread();
         if (options_.realtime && options_.realtime->mode != config::RealtimeMode::Off) {
             auto rt = rt::make_realtime(options_.realtime->priority, options_.realtime->cpus);
             if (!rt) {
@@ -434,15 +448,24 @@ void BusLoop::stop() {
     }
 }
 
-std::expected<void, master::SubmitError> BusLoop::submit(master::ClientRequest request) {
-    if (!impl_) {
+std::expected<void, master::SubmitError> BusLoop::submit(const master::ClientRequest& request) {
+    if (!handover_.requests.try_push(request)) {
         return std::unexpected(master::SubmitError::QueueFull);
     }
-    return impl_->submit(std::move(request));
+    poke(wake_.get());
+    return {};
 }
 
 master::BusStatus BusLoop::status() const {
-    return impl_ ? impl_->status() : master::BusStatus{};
+    const StatusCopy c = status_.load();
+    master::BusStatus s;
+    s.name = bus_.name;
+    s.up = c.up;
+    s.counters = c.counters;
+    s.reply_latency = c.reply_latency;
+    s.extra_gap = c.extra_gap;
+    s.sequence = c.sequence;
+    return s;
 }
 
 }  // namespace drivebus::bus

@@ -8,13 +8,15 @@
 #include <expected>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <thread>
 #include <vector>
 
+#include "bus/handover.hpp"
 #include "config/config.hpp"
+#include "log/log.hpp"
 #include "master/bus_engine.hpp"
+#include "sys/seqlock.hpp"
 
 namespace drivebus::bus {
 
@@ -37,8 +39,21 @@ struct LoopOptions {
     std::function<void(const WriteTrace&)> on_written;
 };
 
+// What other threads see of the bus: the engine's status without the name, copied through a
+// seqlock so that no reader can hold the bus thread up.
+struct StatusCopy {
+    bool up = false;
+    master::BusCounters counters;
+    master::TimingStats reply_latency;
+    master::TimingStats extra_gap;
+    std::uint64_t sequence = 0;
+};
+
+// Every member that other threads use is lock-free: the hand-over rings, atomics and the
+// seqlocked status. The bus thread shares no mutex with anyone.
 class BusLoop {
 public:
+    // `callbacks` are called on the bus thread as well as the hand-over (tests, benchmarks).
     BusLoop(const config::BusConfig& bus, master::EngineCallbacks callbacks, LoopOptions options = {});
     ~BusLoop();
     BusLoop(const BusLoop&) = delete;
@@ -50,10 +65,14 @@ public:
     std::expected<void, std::string> start();
     void stop();
 
-    // Thread-safe: queues a client request for the bus thread.
-    std::expected<void, master::SubmitError> submit(master::ClientRequest request);
-    // Thread-safe copy of the bus status.
+    // Queues a client request for the bus thread through the request ring; its result comes
+    // back through handover().results. One thread only may submit (the ring's one producer).
+    // QueueFull: the ring is full.
+    std::expected<void, master::SubmitError> submit(const master::ClientRequest& request);
+    // Any thread: a copy of the bus status.
     [[nodiscard]] master::BusStatus status() const;
+    // The rings between the bus thread and the ipc thread.
+    [[nodiscard]] Handover& handover() noexcept { return handover_; }
     // Whether the line is open, without copying the status.
     [[nodiscard]] bool up() const noexcept { return up_.load(std::memory_order_relaxed); }
     // How often the loop has gone round: at least twice a second while it is alive, so a
@@ -66,6 +85,10 @@ private:
     const config::BusConfig& bus_;
     master::EngineCallbacks callbacks_;
     LoopOptions options_;
+    Handover handover_;
+    sys::Seqlock<StatusCopy> status_;
+    log::Ring log_;  // the bus thread's log lines, written by the log's drain thread
+    sys::UniqueFd wake_;  // the bus thread's: a request is waiting, or stop
     std::unique_ptr<Impl> impl_;
     std::thread thread_;
     std::atomic<std::uint64_t> heartbeat_{0};

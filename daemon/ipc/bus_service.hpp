@@ -1,25 +1,17 @@
-// One bus's face in shared memory: a snapshot publisher per drive, a status publisher, and the
-// request server. Requests are taken off iceoryx's queue at once by an intake thread (an
-// iceoryx 2.0 server may hold only four requests), checked, and handed to the bus loop's own
-// bounded queue; each result is answered from the bus thread. So any number of clients, each
-// with many requests outstanding, get answered, or get "queue full" without delay.
+// One bus's face in shared memory, run by one ipc thread per bus: the intake (the request
+// server), the publisher (drive snapshots, bus status) and the lease policy. The ipc thread
+// owns all three alone, so none of them has a mutex; it meets the real-time bus thread only
+// through the bus's hand-over rings and eventfds, so the bus thread never waits for it.
 #pragma once
 
-#include <atomic>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
+#include "bus/bus_loop.hpp"
 #include "config/config.hpp"
 #include "ipc/host.hpp"
-#include "master/bus_engine.hpp"
-
-namespace drivebus::bus {
-class BusLoop;
-}
 
 namespace drivebus::ipc {
 
@@ -28,22 +20,20 @@ namespace drivebus::ipc {
 
 class BusService {
 public:
-    BusService(const config::BusConfig& bus, const Layout& layout);
+    // Offers the bus's services for `loop` (which must outlive the service).
+    BusService(const config::BusConfig& bus, const Layout& layout, bus::BusLoop& loop);
     ~BusService();
     BusService(const BusService&) = delete;
     BusService& operator=(const BusService&) = delete;
     BusService(BusService&&) = delete;
     BusService& operator=(BusService&&) = delete;
 
-    // Called on the bus thread: publish a drive's poll cycle, answer a finished request.
-    void on_snapshot(const master::DriveSnapshot& snapshot);
-    void on_result(std::uint64_t correlation, const master::Result& result);
-
-    // Starts taking requests for `loop` (which must outlive stop()). `on_thread` runs first on
-    // the new thread, which also expires the control leases: it sets its scheduling.
-    void start(bus::BusLoop& loop, const std::function<void()>& on_thread = {});
+    // Starts and stops the ipc thread. `on_thread` runs first on the new thread, which also
+    // expires the control leases: it sets its scheduling.
+    void start(const std::function<void()>& on_thread = {});
     void stop();
 
+    // Any thread.
     [[nodiscard]] std::size_t drives_online() const;
 
     struct Impl;

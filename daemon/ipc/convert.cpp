@@ -97,10 +97,19 @@ void fill_status(const config::BusConfig& bus, const master::BusStatus& in,
     }
 }
 
-void fill_response(const master::Result& result, shm::Response& out) noexcept {
-    out.attempts = static_cast<std::uint8_t>(std::min(result.attempts, 255U));
-    out.reply_ns = monotonic_ns(result.finished);
-    switch (result.outcome) {
+void fill_response(const bus::Finished& f, shm::Response& out) noexcept {
+    switch (f.refusal) {
+    case bus::Refusal::None: break;
+    case bus::Refusal::QueueFull: out.status = shm::Status::QueueFull; return;
+    case bus::Refusal::BusDown: out.status = shm::Status::BusDown; return;
+    case bus::Refusal::UnknownDrive:
+        out.status = shm::Status::Rejected;
+        out.reason = shm::RejectReason::UnknownDrive;
+        return;
+    }
+    out.attempts = f.attempts;
+    out.reply_ns = monotonic_ns(f.finished);
+    switch (f.outcome) {
     case master::Outcome::Ok: out.status = shm::Status::Ok; break;
     case master::Outcome::Exception: out.status = shm::Status::Exception; break;
     case master::Outcome::Timeout: out.status = shm::Status::Timeout; break;
@@ -113,25 +122,21 @@ void fill_response(const master::Result& result, shm::Response& out) noexcept {
             std::min<std::int64_t>(ns(result.late_latency) / 1000, std::numeric_limits<std::uint32_t>::max()));
         break;
     }
-    if (const auto code = result.exception()) {
+    if (f.exception != 0) {
         out.status = shm::Status::Exception;
-        out.exception = static_cast<std::uint8_t>(*code);
+        out.exception = f.exception;
         return;
     }
-    if (!result.response) {
-        return;
+    const auto words = f.words.words();
+    out.count = static_cast<std::uint16_t>(std::min(words.size(), out.values.size()));
+    std::copy_n(words.begin(), out.count, out.values.begin());
+    for (std::size_t i = 0; i < out.identity.size(); ++i) {
+        shm::assign(out.identity.at(i), std::string_view(f.identity.at(i).data()));
     }
-    if (const auto* read = std::get_if<rtu::ReadHoldingRegistersResponse>(&*result.response)) {
-        const auto words = read->values.words();
-        out.count = static_cast<std::uint16_t>(std::min(words.size(), out.values.size()));
-        std::copy_n(words.begin(), out.count, out.values.begin());
-    } else if (const auto* id = std::get_if<rtu::DeviceIdentificationResponse>(&*result.response)) {
-        for (const auto& object : id->objects) {
-            if (object.id < out.identity.size()) {
-                shm::assign(out.identity.at(object.id), object.value);
-            }
-        }
-    }
+}
+
+void fill_response(const master::Result& result, shm::Response& out) noexcept {
+    fill_response(bus::finished(0, result), out);
 }
 
 }  // namespace drivebus::ipc

@@ -1,6 +1,7 @@
 // From what the master knows to the shared-memory payloads. Pure.
 #pragma once
 
+#include "bus/finished.hpp"
 #include "config/config.hpp"
 #include "drivebus/shm.hpp"
 #include "master/result.hpp"
@@ -16,7 +17,8 @@ void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noe
 void fill_status(const config::BusConfig& bus, const master::BusStatus& in,
                  const std::vector<shm::DriveHealth>& health, shm::BusStatus& out) noexcept;
 
-// The response to a request that went to the wire.
+// The response to a request the bus took: its outcome, or why it was refused.
+void fill_response(const bus::Finished& finished, shm::Response& out) noexcept;
 void fill_response(const master::Result& result, shm::Response& out) noexcept;
 
 [[nodiscard]] shm::DriveHealth to_shm(master::Health health) noexcept;

@@ -102,7 +102,8 @@ void LeaseTable::fallback_result(std::size_t drive, bool ok) {
 shm::LeaseStatus LeaseTable::status(std::size_t drive) const {
     const auto& l = leases_.at(drive);
     shm::LeaseStatus s;
-    s.holder = l.state == shm::LeaseState::Held ? l.holder : 0;
+    // An expired lease still names its last holder: whose application stopped renewing.
+    s.holder = l.state == shm::LeaseState::Free ? 0 : l.holder;
     s.expires_ns = l.state == shm::LeaseState::Held ? ns(l.expires) : 0;
     s.duration_ms = ms(l.duration);
     s.state = l.state;

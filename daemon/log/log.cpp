@@ -1,15 +1,25 @@
 #include "log/log.hpp"
 
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <thread>
+#include <vector>
+
+#include "sys/posix.hpp"
 
 namespace drivebus::log {
 namespace {
 
 std::mutex g_mutex;
 std::string g_program = "drivebusd";
-Level g_max = Level::Info;
+std::atomic<Level> g_max{Level::Info};
 bool g_journal = false;
+thread_local Ring* t_ring = nullptr;
 
 std::string_view name_of(Level level) {
     switch (level) {
@@ -22,6 +32,74 @@ std::string_view name_of(Level level) {
     return "info";
 }
 
+void print(Level level, std::string_view message) {
+    const std::lock_guard lock(g_mutex);
+    if (g_journal) {
+        std::fprintf(stderr, "<%d>%.*s\n", static_cast<int>(level), static_cast<int>(message.size()), message.data());
+    } else {
+        const auto name = name_of(level);
+        std::fprintf(stderr, "%s: %.*s: %.*s\n", g_program.c_str(), static_cast<int>(name.size()), name.data(),
+                     static_cast<int>(message.size()), message.data());
+    }
+}
+
+// The thread that writes what the rings hold. Started with the first ring; the rings'
+// threads only write its eventfd, they never take its mutex.
+class Drainer {
+public:
+    Drainer() : wake_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
+        thread_ = std::thread([this] { run(); });
+    }
+    ~Drainer() {
+        stopping_ = true;
+        poke();
+        thread_.join();
+    }
+    Drainer(const Drainer&) = delete;
+    Drainer& operator=(const Drainer&) = delete;
+    Drainer(Drainer&&) = delete;
+    Drainer& operator=(Drainer&&) = delete;
+
+    void add(Ring* ring) {
+        const std::lock_guard lock(mutex_);
+        rings_.push_back(ring);
+    }
+    void remove(Ring* ring) {
+        const std::lock_guard lock(mutex_);
+        ring->drain();
+        std::erase(rings_, ring);
+    }
+    void poke() const noexcept {
+        const std::uint64_t one = 1;
+        [[maybe_unused]] const auto n = ::write(wake_.get(), &one, sizeof one);
+    }
+
+private:
+    void run() {
+        while (!stopping_) {
+            pollfd p{wake_.get(), POLLIN, 0};
+            (void)::poll(&p, 1, 1000);
+            std::uint64_t count = 0;
+            [[maybe_unused]] const auto n = ::read(wake_.get(), &count, sizeof count);
+            const std::lock_guard lock(mutex_);
+            for (auto* ring : rings_) {
+                ring->drain();
+            }
+        }
+    }
+
+    sys::UniqueFd wake_;
+    std::mutex mutex_;  // the drain thread and the threads that create and destroy rings
+    std::vector<Ring*> rings_;
+    std::atomic<bool> stopping_{false};
+    std::thread thread_;
+};
+
+Drainer& drainer() {
+    static Drainer d;
+    return d;
+}
+
 }  // namespace
 
 void init(std::string_view program, Level max) {
@@ -31,17 +109,60 @@ void init(std::string_view program, Level max) {
     g_journal = std::getenv("JOURNAL_STREAM") != nullptr;
 }
 
+bool enabled(Level level) noexcept {
+    return level <= g_max.load(std::memory_order_relaxed);
+}
+
 void write(Level level, std::string_view message) {
-    if (level > g_max) {
+    if (!enabled(level)) {
         return;
     }
-    const std::lock_guard lock(g_mutex);
-    if (g_journal) {
-        std::fprintf(stderr, "<%d>%.*s\n", static_cast<int>(level), static_cast<int>(message.size()), message.data());
-    } else {
-        const auto name = name_of(level);
-        std::fprintf(stderr, "%s: %.*s: %.*s\n", g_program.c_str(), static_cast<int>(name.size()), name.data(),
-                     static_cast<int>(message.size()), message.data());
+    if (t_ring != nullptr) {
+        if (t_ring->put(level, message)) {
+            drainer().poke();
+        }
+        return;
+    }
+    print(level, message);
+}
+
+Ring::Ring(std::size_t capacity, bool drained) : lines_(capacity), drained_(drained) {
+    if (drained_) {
+        drainer().add(this);
+    }
+}
+
+Ring::~Ring() {
+    if (drained_) {
+        drainer().remove(this);
+    }
+}
+
+void Ring::use_on_this_thread() noexcept {
+    t_ring = this;
+}
+
+bool Ring::put(Level level, std::string_view message) noexcept {
+    RingLine line;
+    line.level = level;
+    line.length = static_cast<std::uint16_t>(std::min(message.size(), line.text.size()));
+    std::copy_n(message.begin(), line.length, line.text.begin());
+    if (!lines_.try_push(line)) {
+        dropped_.fetch_add(1, std::memory_order_relaxed);
+        return false;
+    }
+    return true;
+}
+
+void Ring::drain() {
+    RingLine line;
+    while (lines_.try_pop(line)) {
+        print(line.level, std::string_view(line.text.data(), line.length));
+    }
+    if (const auto dropped = dropped_.load(std::memory_order_relaxed); dropped != dropped_reported_) {
+        print(Level::Warning, std::to_string(dropped - dropped_reported_) +
+                                  " log lines of a real-time thread dropped: its log ring was full");
+        dropped_reported_ = dropped;
     }
 }
 

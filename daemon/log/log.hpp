@@ -1,14 +1,22 @@
 // Logging for drivebusd: one line per message on stderr, with the syslog priority prefix
 // ("<4>") that journald reads when stderr is the journal, so levels survive without a
 // library; repeats of the same fault are rate-limited (logged once, then counted).
+//
+// A thread that must never wait (a real-time bus thread) does not write itself: it is given a
+// Ring, and its lines go into that lock-free ring, which the log's own thread drains and
+// writes. A full ring drops the line and counts it; the count is logged with the next line.
 #pragma once
 
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <map>
 #include <mutex>
 #include <string>
 #include <string_view>
+
+#include "sys/spsc_ring.hpp"
 
 namespace drivebus::log {
 
@@ -18,6 +26,45 @@ enum class Level : std::uint8_t { Error = 3, Warning = 4, Notice = 5, Info = 6, 
 // "drivebusd: warning: ..." otherwise. Messages above `max` are dropped.
 void init(std::string_view program, Level max);
 void write(Level level, std::string_view message);
+// Whether a message at `level` would be written (check before building an expensive one).
+[[nodiscard]] bool enabled(Level level) noexcept;
+
+// One line in a Ring: fixed size, truncated.
+struct RingLine {
+    Level level = Level::Info;
+    std::uint16_t length = 0;
+    std::array<char, 256> text{};
+};
+
+// A thread's log ring. Create it on a thread that may wait (it registers with the log's
+// drain thread), then call use_on_this_thread() on the thread that must not; destroy it after
+// that thread has ended (what is left in it is written first).
+class Ring {
+public:
+    // `drained` false: not given to the drain thread; the owner calls drain() (tests).
+    explicit Ring(std::size_t capacity = 256, bool drained = true);
+    ~Ring();
+    Ring(const Ring&) = delete;
+    Ring& operator=(const Ring&) = delete;
+    Ring(Ring&&) = delete;
+    Ring& operator=(Ring&&) = delete;
+
+    // From now on, log lines of the calling thread go into this ring.
+    void use_on_this_thread() noexcept;
+    // The producer side (the thread using it): false when full (the line is counted dropped).
+    bool put(Level level, std::string_view message) noexcept;
+    // The consumer side (the drain thread, or the owner of an undrained ring): writes what is
+    // waiting.
+    void drain();
+
+    [[nodiscard]] std::uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
+
+private:
+    sys::SpscRing<RingLine> lines_;
+    std::atomic<std::uint64_t> dropped_{0};
+    std::uint64_t dropped_reported_ = 0;
+    bool drained_;
+};
 
 inline void error(std::string_view m) {
     write(Level::Error, m);

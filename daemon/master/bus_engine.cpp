@@ -53,6 +53,15 @@ void BusEngine::line_down(rtu::Instant now) {
     }
     transmitting_ = false;
     scheduler_.line_down(now);
+    // Waiting client requests are answered now, not sent whenever the line comes back.
+    for (const Job& job : scheduler_.take_client_jobs()) {
+        Result down;
+        down.outcome = Outcome::BusDown;
+        down.finished = now;
+        if (callbacks_.client_result) {
+            callbacks_.client_result(job.correlation, down);
+        }
+    }
     ++status_.sequence;
 }
 
@@ -242,8 +251,9 @@ std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now, std::size_t in
         if (!job) {
             return std::nullopt;
         }
-        const rtu::FunctionLimits limits =
-            job->drive == kNoDrive ? rtu::FunctionLimits::modbus_spec() : scheduler_.limits(job->drive);
+        // By reference: a copy would allocate (its block windows) on every transaction.
+        static const rtu::FunctionLimits kSpec = rtu::FunctionLimits::modbus_spec();
+        const rtu::FunctionLimits& limits = job->drive == kNoDrive ? kSpec : scheduler_.limits(job->drive);
         auto adu = rtu::encode_request(job->request, limits);
         if (!adu) {
             // Requests are validated before they are queued; this one is dropped, not sent.

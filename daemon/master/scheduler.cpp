@@ -7,8 +7,6 @@
 namespace drivebus::master {
 namespace {
 
-constexpr rtu::FunctionCode kRead = rtu::FunctionCode::ReadHoldingRegisters;
-
 // The register a keep-alive or probe reads: the first polled one, or the first readable
 // register of the profile.
 std::optional<std::uint16_t> keep_alive_register(const config::DriveConfig& drive) {
@@ -26,53 +24,6 @@ std::optional<std::uint16_t> keep_alive_register(const config::DriveConfig& driv
 }
 
 }  // namespace
-
-rtu::FunctionLimits limits_of(const Profile& profile) {
-    rtu::FunctionLimits limits;
-    limits.max_address = profile.address_max;
-    limits.max_read = profile.functions.read_holding_max;
-    limits.max_write = profile.functions.write_multiple_max;
-    limits.write_single = profile.functions.write_single;
-    limits.device_identification = profile.functions.device_identification;
-    const auto& broadcast = profile.functions.broadcast;
-    limits.broadcast_write_single = std::ranges::find(broadcast, std::uint8_t{6}) != broadcast.end();
-    limits.broadcast_write_multiple = std::ranges::find(broadcast, std::uint8_t{16}) != broadcast.end();
-    for (const auto& block : profile.indirect_blocks) {
-        limits.windows.push_back({block.function == 3 ? kRead : rtu::FunctionCode::WriteMultipleRegisters,
-                                  block.address, block.min_quantity, block.max_quantity});
-    }
-    return limits;
-}
-
-std::vector<ReadChunk> plan_reads(const config::PollGroup& group, const Profile& profile,
-                                  const rtu::FunctionLimits& limits) {
-    std::vector<ReadChunk> chunks;
-    if (group.indirect) {
-        if (const IndirectBlock* block = profile.block(3)) {
-            ReadChunk chunk{block->address, static_cast<std::uint16_t>(group.registers.size()), {}};
-            for (const auto& r : group.registers) {
-                chunk.addresses.push_back(r.address);
-            }
-            chunks.push_back(std::move(chunk));
-        }
-        return chunks;
-    }
-    // Consecutive registers share a transaction up to the drive's plain read limit.
-    const std::uint16_t max = std::max<std::uint16_t>(1, limits.max_read);
-    for (const auto& r : group.registers) {
-        if (!chunks.empty()) {
-            ReadChunk& last = chunks.back();
-            if (r.address == static_cast<std::uint16_t>(last.start + last.quantity) && last.quantity < max &&
-                last.start + last.quantity <= 0xFFFF) {
-                ++last.quantity;
-                last.addresses.push_back(r.address);
-                continue;
-            }
-        }
-        chunks.push_back(ReadChunk{r.address, 1, {r.address}});
-    }
-    return chunks;
-}
 
 Scheduler::Scheduler(const config::BusConfig& bus, rtu::Instant start) : bus_(bus) {
     for (const auto& d : bus.drives) {
@@ -100,32 +51,6 @@ std::optional<std::size_t> Scheduler::drive_at(rtu::SlaveAddress address) const 
     return std::nullopt;
 }
 
-std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
-    Job job;
-    job.kind = JobKind::Client;
-    job.client = request.client;
-    job.correlation = request.correlation;
-    job.request = request.request;
-    if (request.request.address == rtu::kBroadcastAddress) {
-        job.drive = kNoDrive;
-    } else if (request.probe) {
-        job.drive = kNoDrive;  // no drive's counters or health: it may not be configured
-        job.retries = 0;
-    } else if (const auto d = drive_at(request.request.address)) {
-        job.drive = *d;
-    } else {
-        return std::unexpected(SubmitError::UnknownDrive);
-    }
-    if (queued_ >= bus_.queue_limit) {
-        return std::unexpected(SubmitError::QueueFull);
-    }
-    const bool write = !std::holds_alternative<rtu::ReadHoldingRegisters>(request.request.pdu) &&
-                       !std::holds_alternative<rtu::ReadDeviceIdentification>(request.request.pdu);
-    (write ? writes_ : reads_)[request.client].push_back(std::move(job));
-    ++queued_;
-    return {};
-}
-
 std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
     if (!line_up_) {
         return std::nullopt;
@@ -135,10 +60,25 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
             return job;
         }
     } else {
+        if (auto job = next_fallback()) {
+            return job;
+        }
         if (auto job = next_setup()) {
             return job;
         }
-        if (auto job = next_client()) {
+        if (auto job = take_client({&writes_})) {
+            return job;
+        }
+        // A due poll goes between two client reads: a flood of reads cannot starve the polls
+        // (and leave every snapshot stale).
+        if (last_was_read_) {
+            if (auto job = next_poll(now)) {
+                last_was_read_ = false;
+                return job;
+            }
+        }
+        if (auto job = next_client_read()) {
+            last_was_read_ = true;
             return job;
         }
     }
@@ -165,36 +105,6 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
                 return job;
             }
         }
-    }
-    return std::nullopt;
-}
-
-std::optional<Job> Scheduler::next_client_read() {
-    return take_client({&reads_});
-}
-
-std::optional<Job> Scheduler::next_client() {
-    return take_client({&writes_, &reads_});
-}
-
-std::optional<Job> Scheduler::take_client(std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order) {
-    for (auto* queues : order) {
-        if (queues->empty()) {
-            continue;
-        }
-        // Round-robin: the first client after the one served last.
-        auto it = queues->upper_bound(last_client_);
-        if (it == queues->end()) {
-            it = queues->begin();
-        }
-        Job job = std::move(it->second.front());
-        it->second.pop_front();
-        last_client_ = it->first;
-        if (it->second.empty()) {
-            queues->erase(it);
-        }
-        --queued_;
-        return job;
     }
     return std::nullopt;
 }
@@ -314,7 +224,7 @@ std::optional<rtu::Instant> Scheduler::next_due() const {
             due = t;
         }
     };
-    if (queued_ > 0) {
+    if (queued_ > 0 || std::ranges::any_of(drives_, [](const Drive& d) { return d.fallback.has_value(); })) {
         return rtu::Instant::min();
     }
     for (const Drive& drive : drives_) {
@@ -445,9 +355,8 @@ void Scheduler::line_up(rtu::Instant now) {
     }
 }
 
-DriveSnapshot Scheduler::snapshot(std::size_t drive) const {
+void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     const Drive& d = drives_[drive];
-    DriveSnapshot s;
     s.bus = bus_.name;
     s.name = d.config->name;
     s.address = d.config->address;
@@ -456,7 +365,6 @@ DriveSnapshot Scheduler::snapshot(std::size_t drive) const {
     s.registers = d.values;
     s.counters = d.counters;
     s.sequence = d.sequence;
-    return s;
 }
 
 }  // namespace drivebus::master

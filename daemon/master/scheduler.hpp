@@ -34,6 +34,9 @@ struct ClientRequest {
     rtu::RequestAdu request;
     // A probe (drivebusctl scan): any address, configured or not, tried once.
     bool probe = false;
+    // drivebusd's lease fallback: the drive's own slot, ahead of every client queue and
+    // outside the queue limit (one per drive).
+    bool fallback = false;
 };
 
 struct Job {
@@ -55,7 +58,8 @@ class Scheduler {
 public:
     Scheduler(const config::BusConfig& bus, rtu::Instant start);
 
-    // A client request; validated by the caller. Rejected when the queue is full.
+    // A client request; validated by the caller. Rejected when the queue is full (a fallback:
+    // when its drive's slot is taken).
     std::expected<void, SubmitError> submit(ClientRequest request);
     // The job to send now, if any. With `reads_only`, writes wait (set-up and client writes):
     // a read's echo tells whether the adapter echoes, a write's (FC06) may not.
@@ -68,9 +72,18 @@ public:
     // The line went down: everything in flight is abandoned; polls restart when it is back.
     void line_down(rtu::Instant now);
     void line_up(rtu::Instant now);
+    // Empties the client queues and returns what they held (the line went down: each waiting
+    // request is answered now rather than sent whenever the line comes back).
+    [[nodiscard]] std::vector<Job> take_client_jobs();
 
     [[nodiscard]] std::size_t drive_count() const noexcept { return drives_.size(); }
-    [[nodiscard]] DriveSnapshot snapshot(std::size_t drive) const;
+    // Fills `out` without allocating (the bus thread calls it every poll cycle).
+    void snapshot(std::size_t drive, DriveSnapshot& out) const noexcept;
+    [[nodiscard]] DriveSnapshot snapshot(std::size_t drive) const noexcept {
+        DriveSnapshot s;
+        snapshot(drive, s);
+        return s;
+    }
     [[nodiscard]] Health health(std::size_t drive) const noexcept { return drives_[drive].health; }
     [[nodiscard]] std::size_t queued() const noexcept { return queued_; }
     // The drive at `address`, if configured.
@@ -96,15 +109,16 @@ private:
         rtu::Instant last_contact{};
         rtu::Duration backoff{};
         rtu::Instant next_probe{};
-        std::map<std::uint16_t, RegisterValue> values;
+        RegisterTable values;
         DriveCounters counters;
         std::uint64_t sequence = 0;
+        std::optional<Job> fallback;  // sent before anything else on the bus
     };
 
-    [[nodiscard]] std::optional<Job> next_client();
     [[nodiscard]] std::optional<Job> next_client_read();
     [[nodiscard]] std::optional<Job> take_client(
         std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order);
+    [[nodiscard]] std::optional<Job> next_fallback();
     [[nodiscard]] std::optional<Job> next_setup();
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_keep_alive(rtu::Instant now);
@@ -121,6 +135,7 @@ private:
     std::map<std::uint64_t, std::deque<Job>> writes_;
     std::map<std::uint64_t, std::deque<Job>> reads_;
     std::uint64_t last_client_ = 0;
+    bool last_was_read_ = false;  // the last job was a client read: a due poll goes next
     std::size_t queued_ = 0;
 };
 

@@ -1,10 +1,13 @@
 // What the master knows about a drive and a bus, handed to whoever publishes it.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
-#include <map>
+#include <stdexcept>
 #include <string>
+#include <string_view>
+#include <type_traits>
 
 #include "rtu/timing.hpp"
 
@@ -29,16 +32,72 @@ struct DriveCounters {
     std::array<std::uint64_t, 12> exceptions{};  // by code (index 0: codes above 11)
 };
 
-struct DriveSnapshot {
-    std::string bus;
-    std::string name;
-    std::uint8_t address = 0;
-    std::string profile;
-    Health health = Health::Unknown;
-    std::map<std::uint16_t, RegisterValue> registers;
-    DriveCounters counters;
-    std::uint64_t sequence = 0;  // increases with every snapshot of this drive
+// The registers a snapshot carries, as many as the shared-memory snapshot can (the
+// configuration check refuses more): a fixed table sorted by address, so that a poll cycle
+// copies it without allocating and the copy can cross threads through a ring.
+inline constexpr std::size_t kMaxSnapshotRegisters = 128;
+
+struct RegisterEntry {
+    std::uint16_t address = 0;
+    RegisterValue value;
 };
+
+class RegisterTable {
+public:
+    // The value at `address`, added (in address order) if new. Past the table's capacity the
+    // register is not kept: the returned slot is a scratch one, overwritten by the next.
+    RegisterValue& operator[](std::uint16_t address) noexcept {
+        auto* it = std::lower_bound(begin(), end(), address,
+                                    [](const RegisterEntry& e, std::uint16_t a) { return e.address < a; });
+        if (it != end() && it->address == address) {
+            return it->value;
+        }
+        if (count_ == entries_.size()) {
+            scratch_ = {};
+            return scratch_;
+        }
+        std::move_backward(it, end(), end() + 1);
+        ++count_;
+        *it = RegisterEntry{address, {}};
+        return it->value;
+    }
+    [[nodiscard]] bool contains(std::uint16_t address) const noexcept {
+        return std::ranges::any_of(*this, [&](const RegisterEntry& e) { return e.address == address; });
+    }
+    [[nodiscard]] const RegisterValue& at(std::uint16_t address) const {
+        for (const auto& e : *this) {
+            if (e.address == address) {
+                return e.value;
+            }
+        }
+        throw std::out_of_range("register not in the snapshot");
+    }
+    [[nodiscard]] const RegisterEntry* begin() const noexcept { return entries_.data(); }
+    [[nodiscard]] const RegisterEntry* end() const noexcept { return entries_.data() + count_; }
+    [[nodiscard]] RegisterEntry* begin() noexcept { return entries_.data(); }
+    [[nodiscard]] RegisterEntry* end() noexcept { return entries_.data() + count_; }
+    [[nodiscard]] std::size_t size() const noexcept { return count_; }
+    [[nodiscard]] bool empty() const noexcept { return count_ == 0; }
+
+private:
+    std::array<RegisterEntry, kMaxSnapshotRegisters> entries_{};
+    std::size_t count_ = 0;
+    RegisterValue scratch_;
+};
+
+// Fixed-size and trivially copyable: the names point into the configuration, which outlives
+// every bus thread and every reader of a snapshot.
+struct DriveSnapshot {
+    std::string_view bus;
+    std::string_view name;
+    std::uint8_t address = 0;
+    std::string_view profile;
+    Health health = Health::Unknown;
+    RegisterTable registers;
+    DriveCounters counters;
+    std::uint64_t sequence = 0;  // the drive's completed poll cycles and absences, as the scheduler counts them
+};
+static_assert(std::is_trivially_copyable_v<DriveSnapshot>);
 
 struct TimingStats {
     std::uint64_t count = 0;

@@ -80,7 +80,7 @@ struct DriveCounters {
 };
 
 struct LeaseStatus {
-    std::uint64_t holder = 0;  // client id; 0: none
+    std::uint64_t holder = 0;  // client id (Held: the holder; Expired: the last one); 0: none
     std::int64_t expires_ns = 0;  // CLOCK_MONOTONIC; 0 when free
     std::uint32_t duration_ms = 0;
     LeaseState state = LeaseState::Free;

@@ -30,8 +30,8 @@ public:
         master::EngineCallbacks c;
         c.snapshot = [this](const master::DriveSnapshot& s) {
             const std::lock_guard lock(mutex_);
-            latest_[s.name] = s;
-            ++count_[s.name];
+            latest_[std::string(s.name)] = s;
+            ++count_[std::string(s.name)];
             for (const auto& [address, v] : s.registers) {
                 if (v.valid && s.name == "fan" && v.value != kFanValue(static_cast<std::uint16_t>(address - 450))) {
                     ++wrong_values_;

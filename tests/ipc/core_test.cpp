@@ -6,6 +6,8 @@
 #include "ipc/admission.hpp"
 #include "ipc/convert.hpp"
 #include "ipc/lease.hpp"
+#include "ipc/lease_policy.hpp"
+#include "ipc/pending.hpp"
 #include "master/block_setup.hpp"
 
 namespace drivebus::ipc {
@@ -315,6 +317,64 @@ TEST(Lease, RenewalKeepsItAndExpiryHappensOnceAtTheDeadline) {
     EXPECT_FALSE(t.renew(0, 11, t0 + 2s).allowed);
     EXPECT_TRUE(t.acquire(0, 22, "b", false, t0 + 2s).allowed);
     EXPECT_FALSE(t.acquire(0, 22, "b", false, t0 + 2s).taken_over);
+}
+
+// The lease policy decides and returns actions; the caller answers, logs, publishes, writes.
+TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
+    const auto b = bus();
+    LeasePolicy p(b);
+    const rtu::Instant t0{};
+    const Origin a{1, 11, "a", shm::RequestKind::Write, 0};
+    const Origin other{2, 22, "b", shm::RequestKind::Write, 0};
+    const auto taken = p.command(0, a, false, t0);
+    EXPECT_EQ(taken.status, shm::Status::Ok);
+    EXPECT_TRUE(taken.republish) << "a new holder is published";
+    EXPECT_EQ(taken.lease_ms, 500U);
+    EXPECT_FALSE(p.command(0, a, false, t0 + 100ms).republish) << "a renewal is not";
+    const auto refused = p.command(0, other, false, t0 + 100ms);
+    EXPECT_EQ(refused.status, shm::Status::NotPermitted);
+    EXPECT_EQ(refused.holder, 11U);
+    ASSERT_TRUE(refused.note.has_value());
+    EXPECT_NE(refused.note->text.find("a holds the control lease"), std::string::npos) << refused.note->text;
+    EXPECT_EQ(p.command(kBroadcast, other, false, t0 + 100ms).status, shm::Status::NotPermitted);
+    // It runs out: the pump's fallback is the profile's ramp stop, written to its command word.
+    const auto fallbacks = p.expire(t0 + 600ms);
+    ASSERT_EQ(fallbacks.size(), 1U);
+    EXPECT_EQ(fallbacks[0].note.level, log::Level::Warning);
+    ASSERT_TRUE(fallbacks[0].write.has_value());
+    EXPECT_EQ(fallbacks[0].write->address, 1);
+    EXPECT_EQ(fallbacks[0].write->pdu, rtu::Request(rtu::WriteSingleRegister{0xFA00, 0xC000}));
+    // The expired lease still names its last holder.
+    EXPECT_EQ(p.status(0).state, shm::LeaseState::Expired);
+    EXPECT_EQ(p.status(0).holder, 11U);
+    const auto failed = p.fallback_done(0, master::Outcome::Timeout, false);
+    ASSERT_TRUE(failed.note.has_value());
+    EXPECT_EQ(failed.note->level, log::Level::Error);
+    EXPECT_EQ(p.status(0).fallback_ok, 0);
+    EXPECT_FALSE(p.fallback_done(0, master::Outcome::Ok, false).note.has_value());
+    EXPECT_EQ(p.status(0).fallback_ok, 1);
+}
+
+// The one queue limit: clients' entries up to the limit, drivebusd's own beyond it, and every
+// entry leaves exactly once.
+TEST(PendingBook, BooksUpToTheLimitAndEveryEntryLeavesOnce) {
+    PendingBook<int> book(2);
+    const auto first = book.book(Origin{}, 1);
+    const auto second = book.book(Origin{}, 2);
+    ASSERT_TRUE(first && second);
+    EXPECT_FALSE(book.book(Origin{}, 3).has_value()) << "the limit answers QueueFull";
+    const auto own = book.book_own(Origin{});
+    EXPECT_EQ(book.size(), 3U);
+    EXPECT_EQ(book.clients_in_flight(), 2U);
+    const auto done = book.finish(*first);
+    ASSERT_TRUE(done && done->route);
+    EXPECT_EQ(*done->route, 1);
+    EXPECT_FALSE(book.finish(*first).has_value()) << "an entry leaves once";
+    EXPECT_TRUE(book.book(Origin{}, 4).has_value());
+    const auto mine = book.finish(own);
+    ASSERT_TRUE(mine);
+    EXPECT_TRUE(mine->origin.fallback);
+    EXPECT_FALSE(mine->route.has_value());
 }
 
 TEST(Lease, ReleaseMeansNoFallback) {

@@ -20,10 +20,10 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// A test_client process whose stdout is read as it runs.
+// A test_client process (or `program`) whose stdout is read as it runs.
 class Client {
 public:
-    explicit Client(const std::vector<std::string>& args) {
+    explicit Client(const std::vector<std::string>& args, const char* program = TEST_CLIENT_PATH) {
         int fds[2];
         if (::pipe2(fds, O_CLOEXEC) != 0) {
             throw std::runtime_error("pipe");
@@ -33,7 +33,7 @@ public:
             ::dup2(fds[1], STDOUT_FILENO);
             ::dup2(fds[1], STDERR_FILENO);
             std::vector<char*> argv;
-            std::vector<std::string> all = {TEST_CLIENT_PATH};
+            std::vector<std::string> all = {program};
             all.insert(all.end(), args.begin(), args.end());
             for (auto& a : all) {
                 argv.push_back(a.data());
@@ -186,6 +186,34 @@ TEST(Ipc, AClientKilledMidRequestDisturbsNeitherTheDaemonNorTheOthers) {
     EXPECT_EQ(stack.daemon_output().find("fatal"), std::string::npos) << stack.daemon_output();
 }
 
+// Every request gets exactly one answer: 20 clients, each with 12 reads in flight at once
+// (iceoryx directly, no library in between), three times over. What the queue limit (64)
+// refuses is answered QueueFull at once; everything else with its value.
+TEST(Ipc, AFloodOfClientsGetsOneAnswerPerRequest) {
+    Stack stack;
+    for (int round = 0; round < 3; ++round) {
+        std::vector<std::unique_ptr<Client>> clients;
+        for (int i = 0; i < 20; ++i) {
+            clients.push_back(std::make_unique<Client>(std::vector<std::string>{stack.bus(), "flood", "12"},
+                                                       RAW_REQUEST_PATH));
+        }
+        int ok = 0;
+        int full = 0;
+        for (auto& c : clients) {
+            ASSERT_EQ(c->wait(30s), 0) << "round " << round << ": " << c->output();
+            const auto& out = c->output();
+            ASSERT_NE(out.find("answers 12 of 12 "), std::string::npos) << out;
+            EXPECT_NE(out.find(" other 0 duplicates 0"), std::string::npos) << out;
+            ok += std::stoi(out.substr(out.find(" ok ") + 4));
+            full += std::stoi(out.substr(out.find(" full ") + 6));
+        }
+        // 240 at once against a limit of 64: both kinds of answer come.
+        EXPECT_GT(ok, 0) << "round " << round;
+        EXPECT_GT(full, 0) << "round " << round;
+    }
+    EXPECT_EQ(stack.daemon_output().find("defect"), std::string::npos) << stack.daemon_output();
+}
+
 // The drive's reference is 30 Hz (3000 in 0.01 Hz) and it runs; once the lease runs out,
 // drivebusd's fallback (ramp stop) brings the simulated FD00 down to 0.
 void expect_fallback_stops(Stack& stack, Client& holder, bool kill) {
@@ -217,6 +245,34 @@ TEST(Ipc, ALeaseThatRunsOutStopsTheDrive_HungClient) {
     Stack stack(options);
     Client holder({stack.bus(), "hang", "30"});
     expect_fallback_stops(stack, holder, false);
+}
+
+// The fallback write has its own slot ahead of every client queue: with other clients
+// flooding reads, a SIGKILLed holder's drive still gets its stop word (FA00 = 0xC000, the
+// ATV21 profile's ramp stop), checked in the simulator, six times in a row. The lease
+// snapshot keeps its last holder and the drive's register values.
+TEST(Ipc, TheFallbackWriteIsNeverLostUnderAFlood) {
+    StackOptions options;
+    options.drive_extra = "  lease = \"300ms\"\n  fallback = \"stop\"\n";
+    Stack stack(options);
+    std::vector<std::unique_ptr<Client>> floods;
+    for (int i = 0; i < 4; ++i) {
+        floods.push_back(std::make_unique<Client>(std::vector<std::string>{stack.bus(), "flood", "FD01"}));
+        ASSERT_TRUE(floods.back()->printed("ready", 10s)) << floods.back()->output();
+    }
+    for (int round = 0; round < 6; ++round) {
+        Client holder({stack.bus(), "command", "30"});
+        ASSERT_TRUE(holder.printed("holding", 10s)) << "round " << round << ": " << holder.output();
+        ASSERT_EQ(stack.sim_register(1, "FA00"), 0xC400) << "round " << round;
+        holder.kill9();
+        ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == 0xC000; }, 10s))
+            << "round " << round << ": FA00 = " << stack.sim_register(1, "FA00") << "\n"
+            << stack.daemon_output();
+    }
+    Client lease({stack.bus(), "lease"});
+    ASSERT_EQ(lease.wait(10s), 0) << lease.output();
+    EXPECT_NE(lease.output().find("lease expired holder kept fallback_ok 1 registers 7"), std::string::npos)
+        << lease.output();
 }
 
 TEST(Ipc, ALiveLeaseKeepsTheDriveRunningAndShutsOutOtherWriters) {

@@ -2,6 +2,10 @@
 // bus's request server and sends one write (pump's FA51 = VALUE):
 //   raw_request BUS VALUE
 // Prints "answered STATUS" and exits 0 when drivebusd answered Ok; anything else is non-zero.
+//   raw_request BUS flood N
+// Sends N reads of the pump's FD00 at once (N <= 16, a client's response queue), then takes
+// the answers for up to 20 s: "answers A of N ok O full F other X duplicates D"; exits 0 when
+// every request was answered exactly once.
 #include <unistd.h>
 
 #include <chrono>
@@ -10,14 +14,71 @@
 #include <cstring>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "drivebus/shm.hpp"
 #include "iceoryx_posh/popo/untyped_client.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 
+namespace {
+
+int flood(iox::popo::UntypedClient& client, int n) {
+    using namespace drivebus;
+    for (int i = 0; i < n; ++i) {
+        auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
+        if (loaned.has_error()) {
+            std::printf("no request chunk: error %d\n", static_cast<int>(loaned.get_error()));
+            return 3;
+        }
+        shm::Request r;
+        r.size = sizeof r;
+        r.kind = shm::RequestKind::Read;
+        r.correlation = static_cast<std::uint64_t>(i);
+        r.client = static_cast<std::uint64_t>(::getpid());
+        shm::assign(r.drive, "pump");
+        shm::assign(r.client_name, "raw_request flood");
+        r.start = 0xFD00;
+        r.count = 1;
+        std::memcpy(loaned.value(), &r, sizeof r);
+        if (client.send(loaned.value()).has_error()) {
+            std::printf("send refused\n");
+            return 4;
+        }
+    }
+    std::vector<int> answers(static_cast<std::size_t>(n), 0);
+    int total = 0;
+    int ok = 0;
+    int full = 0;
+    int other = 0;
+    int duplicates = 0;
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (total < n && std::chrono::steady_clock::now() < until) {
+        auto taken = client.take();
+        if (taken.has_error()) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            continue;
+        }
+        shm::Response response{};
+        std::memcpy(&response, taken.value(), sizeof response);
+        client.releaseResponse(taken.value());
+        if (response.correlation >= answers.size() || answers[response.correlation]++ > 0) {
+            ++duplicates;
+            continue;
+        }
+        ++total;
+        ok += response.status == shm::Status::Ok ? 1 : 0;
+        full += response.status == shm::Status::QueueFull ? 1 : 0;
+        other += response.status != shm::Status::Ok && response.status != shm::Status::QueueFull ? 1 : 0;
+    }
+    std::printf("answers %d of %d ok %d full %d other %d duplicates %d\n", total, n, ok, full, other, duplicates);
+    return total == n && duplicates == 0 ? 0 : 5;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-    if (argc != 3) {
-        std::fprintf(stderr, "usage: raw_request BUS VALUE\n");
+    if (argc != 3 && !(argc == 4 && std::string(argv[2]) == "flood")) {
+        std::fprintf(stderr, "usage: raw_request BUS VALUE | raw_request BUS flood N\n");
         return 2;
     }
     using namespace drivebus;
@@ -28,6 +89,9 @@ int main(int argc, char** argv) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(3);
     while (client.getConnectionState() != iox::ConnectionState::CONNECTED && std::chrono::steady_clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    if (argc == 4) {
+        return flood(client, std::atoi(argv[3]));
     }
     auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
     if (loaned.has_error()) {

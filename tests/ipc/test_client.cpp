@@ -9,6 +9,9 @@
 //                                         then renew until killed
 //   test_client BUS hang HZ               same; once FD00 passes 5 Hz it stops renewing (a hung
 //                                         application): "hung"
+//   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
+//                                         expired and whose fallback was acknowledged:
+//                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
 // Exit status: 0, or 1 with the library's one-line error on stderr.
 #include <cstdio>
 #include <cstdlib>
@@ -113,6 +116,27 @@ int main(int argc, char** argv) {
                 first = false;
             }
         }
+    }
+    if (mode == "lease" && argc == 3) {
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        std::uint64_t seen = 0;
+        drivebus::shm::DriveSnapshot last{};
+        while (std::chrono::steady_clock::now() < until) {
+            auto s = pump->wait_snapshot(std::chrono::milliseconds(200), seen);
+            if (!s) {
+                continue;
+            }
+            seen = s->sequence;
+            last = *s;
+            if (last.lease.state == drivebus::shm::LeaseState::Expired && last.lease.fallback_ok != 0) {
+                break;
+            }
+        }
+        std::printf("lease %s holder %s fallback_ok %u registers %u\n",
+                    std::string(drivebus::shm::to_string(last.lease.state)).c_str(),
+                    last.lease.holder != 0 ? "kept" : "none", static_cast<unsigned>(last.lease.fallback_ok),
+                    static_cast<unsigned>(last.register_count));
+        return last.lease.state == drivebus::shm::LeaseState::Expired ? 0 : 1;
     }
     if ((mode == "command" || mode == "hang") && argc == 4) {
         const drivebus::Altivar altivar(*pump);

@@ -133,6 +133,47 @@ TEST_F(SchedulerTest, ClientWritesFirstAndFairBetweenClients) {
     EXPECT_EQ(order, (std::vector<std::uint64_t>{2, 4, 3, 1}));
 }
 
+// Client reads go before the polls, but a due poll is taken between two of them: a flood of
+// reads delays the polls by one read at most, it cannot starve them.
+TEST_F(SchedulerTest, AFloodOfClientReadsDoesNotStarveThePolls) {
+    master::Scheduler s(config, t0);
+    for (std::uint64_t i = 0; i < 20; ++i) {
+        ASSERT_TRUE(s.submit({10 + i % 3, i, {1, rtu::ReadHoldingRegisters{450, 1}}}).has_value());
+    }
+    std::vector<JobKind> kinds;
+    for (int k = 0; k < 8; ++k) {
+        auto j = s.next(t0);
+        ASSERT_TRUE(j);
+        kinds.push_back(j->kind);
+        (void)s.complete(*j, answered(), t0);
+    }
+    // Both drives' polls were due: each went out right after a client read.
+    EXPECT_EQ(kinds, (std::vector<JobKind>{JobKind::Client, JobKind::Poll, JobKind::Client, JobKind::Poll,
+                                           JobKind::Client, JobKind::Client, JobKind::Client, JobKind::Client}));
+}
+
+// A lease fallback has its drive's own slot: taken with every client queue full, sent
+// before any client request, one per drive; a line that goes down does not drop it.
+TEST_F(SchedulerTest, AFallbackWriteHasItsOwnSlotAheadOfEveryClientQueue) {
+    config.queue_limit = 2;
+    master::Scheduler s(config, t0);
+    ASSERT_TRUE(s.submit({10, 1, {1, rtu::WriteSingleRegister{400, 1}}}).has_value());
+    ASSERT_TRUE(s.submit({20, 2, {2, rtu::WriteSingleRegister{400, 2}}}).has_value());
+    EXPECT_EQ(s.submit({30, 3, {1, rtu::WriteSingleRegister{400, 3}}}).error(), master::SubmitError::QueueFull);
+    master::ClientRequest fallback{0, 99, {2, rtu::WriteSingleRegister{400, 0}}};
+    fallback.fallback = true;
+    ASSERT_TRUE(s.submit(fallback).has_value()) << "a full client queue must not refuse a fallback";
+    fallback.correlation = 100;
+    EXPECT_EQ(s.submit(fallback).error(), master::SubmitError::QueueFull) << "one per drive";
+    s.line_down(t0);
+    EXPECT_EQ(s.take_client_jobs().size(), 2U) << "the clients' requests are answered at line down";
+    s.line_up(t0 + 1s);
+    const auto first = s.next(t0 + 1s);
+    ASSERT_TRUE(first);
+    EXPECT_EQ(first->correlation, 99U);
+    EXPECT_EQ(first->drive, 1U);
+}
+
 TEST_F(SchedulerTest, AbsentDrivesAreProbedWithDoublingBackOff) {
     config.absent_backoff_min = 1s;
     config.absent_backoff_max = 4s;

@@ -1,0 +1,58 @@
+#include "bus/handover.hpp"
+
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace drivebus::bus {
+namespace {
+
+// Snapshots wait in the ring only until the ipc thread wakes; a few cycles of every drive
+// cover a slow wake-up.
+constexpr std::size_t kSnapshotsPerDrive = 4;
+constexpr std::size_t kMinSnapshots = 16;
+
+}  // namespace
+
+Handover::Handover(std::size_t queue_limit, std::size_t drives)
+    : requests(queue_limit + drives),
+      results(queue_limit + drives),
+      snapshots(std::max(kMinSnapshots, kSnapshotsPerDrive * drives)),
+      ready_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
+    if (!ready_) {
+        throw std::runtime_error("eventfd for the bus thread's hand-over: refused by the kernel");
+    }
+}
+
+void Handover::put(const Finished& f) noexcept {
+    if (!results.try_push(f)) {
+        results_lost.fetch_add(1, std::memory_order_relaxed);
+    }
+    unflushed_ = true;
+}
+
+void Handover::put(const master::DriveSnapshot& s) noexcept {
+    if (!snapshots.try_push(s)) {
+        snapshots_dropped.fetch_add(1, std::memory_order_relaxed);
+    }
+    unflushed_ = true;
+}
+
+void Handover::flush() noexcept {
+    if (!unflushed_) {
+        return;
+    }
+    unflushed_ = false;
+    const std::uint64_t one = 1;
+    // Cannot block (non-blocking eventfd) and cannot fail short of a counter overflow.
+    [[maybe_unused]] const auto n = ::write(ready_.get(), &one, sizeof one);
+}
+
+void Handover::acknowledge() const noexcept {
+    std::uint64_t count = 0;
+    [[maybe_unused]] const auto n = ::read(ready_.get(), &count, sizeof count);
+}
+
+}  // namespace drivebus::bus

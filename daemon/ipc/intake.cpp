@@ -1,0 +1,123 @@
+#include "ipc/intake.hpp"
+
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+#include "iceoryx_posh/popo/listener.hpp"
+#include "iceoryx_posh/popo/untyped_server.hpp"
+#include "ipc/intake_core.hpp"
+#include "ipc/service.hpp"
+
+namespace drivebus::ipc {
+
+using iox::popo::RequestHeader;
+
+struct Intake::Impl {
+    Impl(const config::BusConfig& b, bus::BusLoop& l, LeasePolicy& leases)
+        : loop(l),
+          ready(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)),
+          server(service(b.name, shm::kRequestEvent), iox::popo::ServerOptions{}),
+          core(b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); }) {
+        if (!ready) {
+            throw std::runtime_error("eventfd for bus " + b.name + "'s requests: refused by the kernel");
+        }
+        if (listener.attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
+                                 iox::popo::createNotificationCallback(on_request, *this))
+                .has_error()) {
+            throw std::runtime_error("bus " + b.name + ": iceoryx refused a listener for its requests");
+        }
+    }
+    ~Impl() { listener.detachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED); }
+    Impl(const Impl&) = delete;
+    Impl& operator=(const Impl&) = delete;
+    Impl(Impl&&) = delete;
+    Impl& operator=(Impl&&) = delete;
+
+    // On iceoryx's listener thread: only wakes the ipc thread.
+    static void on_request(iox::popo::UntypedServer* /*server*/, Impl* self) {
+        const std::uint64_t one = 1;
+        [[maybe_unused]] const auto n = ::write(self->ready.get(), &one, sizeof one);
+    }
+
+    void send(RequestHeader& route, const shm::Response& response) {
+        auto loaned = server.loan(&route, sizeof(shm::Response), alignof(shm::Response));
+        if (loaned.has_error()) {
+            return;  // the client has gone: nothing to answer
+        }
+        std::memcpy(loaned.value(), &response, sizeof response);
+        (void)server.send(loaned.value());
+    }
+
+    bus::BusLoop& loop;
+    sys::UniqueFd ready;
+    iox::popo::UntypedServer server;
+    IntakeCore<RequestHeader> core;
+    iox::popo::Listener listener;
+};
+
+Intake::Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases)
+    : impl_(std::make_unique<Impl>(bus, loop, leases)) {}
+
+Intake::~Intake() = default;
+
+int Intake::ready_fd() const noexcept {
+    return impl_->ready.get();
+}
+
+void Intake::take(rtu::Instant now) {
+    std::uint64_t count = 0;
+    [[maybe_unused]] const auto n = ::read(impl_->ready.get(), &count, sizeof count);
+    for (;;) {
+        auto taken = impl_->server.take();
+        if (taken.has_error()) {
+            return;
+        }
+        const void* payload = taken.value();
+        const auto* header = RequestHeader::fromPayload(payload);
+        const auto size = header->getChunkHeader()->userPayloadSize();
+        shm::Request request{};
+        std::memcpy(&request, payload, std::min<std::size_t>(size, sizeof request));
+        if (size != sizeof request) {
+            request.size = static_cast<std::uint32_t>(size);
+        }
+        // The header only routes the response: keep a copy, give the chunk back now.
+        RequestHeader route = std::move(*const_cast<RequestHeader*>(header));
+        impl_->server.releaseRequest(payload);
+        if (const auto now_answer = impl_->core.accept(request, route, impl_->loop.up(), now)) {
+            impl_->send(route, *now_answer);
+        }
+    }
+}
+
+void Intake::answer(const bus::Finished& f) {
+    auto a = impl_->core.finish(f);
+    if (a && a->entry.route) {
+        impl_->send(*a->entry.route, a->response);
+    }
+}
+
+bool Intake::submit_own(std::size_t drive, const rtu::RequestAdu& write) {
+    return impl_->core.submit_own(drive, write);
+}
+
+std::vector<std::size_t> Intake::take_republish() {
+    return impl_->core.take_republish();
+}
+
+std::uint64_t Intake::served() const noexcept {
+    return impl_->core.served();
+}
+
+std::uint64_t Intake::queue_full() const noexcept {
+    return impl_->core.queue_full();
+}
+
+std::size_t Intake::in_flight() const noexcept {
+    return impl_->core.book().size();
+}
+
+}  // namespace drivebus::ipc

@@ -1,0 +1,151 @@
+// The intake's decisions, without iceoryx: a request taken from shared memory is admitted (or
+// rejected), checked against the leases, booked under the one queue limit and handed to the
+// bus, or answered at once; a result coming back from the bus frees its entry and becomes the
+// answer. Every request leaves through exactly one answer. `Route` is what the caller needs
+// to send that answer (an iceoryx request header); `Submit` hands a request to the bus and
+// returns false when it cannot take it. Pure but for the log.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <functional>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "bus/finished.hpp"
+#include "ipc/admission.hpp"
+#include "ipc/convert.hpp"
+#include "ipc/lease_policy.hpp"
+#include "ipc/pending.hpp"
+
+namespace drivebus::ipc {
+
+template <typename Route>
+class IntakeCore {
+public:
+    using Submit = std::function<bool(const master::ClientRequest&)>;
+
+    IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit)
+        : bus_(bus), leases_(leases), submit_(std::move(submit)), book_(bus.queue_limit) {}
+
+    // A request from a client. Returns the answer to send now with `route`; nullopt: the
+    // request and its route are booked and the bus will answer.
+    std::optional<shm::Response> accept(const shm::Request& request, Route& route, bool bus_up, rtu::Instant now) {
+        Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
+        auto admitted = admit(bus_, request);
+        if (!admitted) {
+            log::info(fmt::format("bus {}: request from {} rejected: {}", bus_.name, who.client_name,
+                                  admitted.error().why));
+            return answer(who, shm::Status::Rejected, admitted.error().reason, admitted.error().register_address);
+        }
+        who.drive = admitted->drive;
+        if (!admitted->on_wire) {
+            const auto a = request.kind == shm::RequestKind::LeaseRelease ? leases_.release(who.drive, who)
+                                                                          : leases_.renew(who.drive, who, now);
+            act(who.drive, a);
+            who.lease_ms = a.lease_ms;
+            return answer(who, a.status, shm::RejectReason::None, 0, a.holder);
+        }
+        if (admitted->touches_control) {
+            const auto a = leases_.command(who.drive, who, (request.flags & shm::kFlagTakeOver) != 0, now);
+            act(who.drive, a);
+            if (a.status != shm::Status::Ok) {
+                return answer(who, a.status, shm::RejectReason::None, request.start, a.holder);
+            }
+            who.lease_ms = a.lease_ms;
+        }
+        if (!bus_up) {
+            return answer(who, shm::Status::BusDown);
+        }
+        const auto id = book_.book(who, std::move(route));
+        if (!id) {
+            return answer(who, shm::Status::QueueFull);
+        }
+        if (!submit_(master::ClientRequest{request.client, *id, admitted->request,
+                                           request.kind == shm::RequestKind::Probe})) {
+            // Cannot happen while the bus's ring is sized to the limit; answered all the same.
+            auto entry = book_.finish(*id);
+            route = std::move(*entry->route);
+            return answer(entry->origin, shm::Status::QueueFull);
+        }
+        return std::nullopt;
+    }
+
+    // drivebusd's own write (a lease fallback): outside the clients' limit.
+    bool submit_own(std::size_t drive, const rtu::RequestAdu& write) {
+        Origin own{0, 0, "drivebusd fallback", shm::RequestKind::Write, drive};
+        const auto id = book_.book_own(own);
+        if (submit_(master::ClientRequest{0, id, write, false, true})) {
+            return true;
+        }
+        (void)book_.finish(id);
+        return false;
+    }
+
+    struct Answer {
+        typename PendingBook<Route>::Entry entry;
+        shm::Response response;
+    };
+    // The bus answered: the entry leaves the book. A fallback's outcome goes to the lease
+    // policy (its entry has no route). Nullopt for an id not booked.
+    std::optional<Answer> finish(const bus::Finished& f) {
+        auto entry = book_.finish(f.id);
+        if (!entry) {
+            return std::nullopt;
+        }
+        ++served_;
+        if (entry->origin.fallback) {
+            act(entry->origin.drive,
+                leases_.fallback_done(entry->origin.drive, f.outcome, f.refusal != bus::Refusal::None));
+        }
+        Answer a{std::move(*entry), response_shell(entry->origin)};
+        fill_response(f, a.response);
+        return a;
+    }
+
+    // Drives whose lease snapshot changed since the last call.
+    std::vector<std::size_t> take_republish() { return std::exchange(republish_, {}); }
+    [[nodiscard]] const PendingBook<Route>& book() const noexcept { return book_; }
+    [[nodiscard]] std::uint64_t served() const noexcept { return served_; }
+    // Requests answered QueueFull at the limit (the bus's own refusals are counted by the bus).
+    [[nodiscard]] std::uint64_t queue_full() const noexcept { return queue_full_; }
+
+private:
+    static shm::Response response_shell(const Origin& who) {
+        shm::Response r{};
+        r.size = sizeof r;
+        r.correlation = who.correlation;
+        r.lease_ms = who.lease_ms;
+        return r;
+    }
+
+    shm::Response answer(const Origin& who, shm::Status status, shm::RejectReason reason = shm::RejectReason::None,
+                         std::uint16_t address = 0, std::uint64_t holder = 0) {
+        ++served_;
+        queue_full_ += status == shm::Status::QueueFull ? 1 : 0;
+        auto r = response_shell(who);
+        r.status = status;
+        r.reason = reason;
+        r.register_address = address;
+        r.lease_holder = holder;
+        return r;
+    }
+
+    void act(std::size_t drive, const LeaseAction& a) {
+        write_note(a.note);
+        if (a.republish && drive != kBroadcast) {
+            republish_.push_back(drive);
+        }
+    }
+
+    const config::BusConfig& bus_;
+    LeasePolicy& leases_;
+    Submit submit_;
+    PendingBook<Route> book_;
+    std::vector<std::size_t> republish_;
+    std::uint64_t served_ = 0;
+    std::uint64_t queue_full_ = 0;
+};
+
+}  // namespace drivebus::ipc

@@ -1,0 +1,66 @@
+// What the ipc side does about control leases, decided without doing it: the policy takes
+// events (a command write, a renewal, a release, time passing, a fallback's outcome) and
+// returns actions (answer with this, publish the drive's lease again, log this line, write
+// this fallback). Pure: time is an argument; tested without RouDi or a bus.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "config/config.hpp"
+#include "ipc/lease.hpp"
+#include "ipc/pending.hpp"
+#include "log/log.hpp"
+#include "master/result.hpp"
+#include "rtu/pdu.hpp"
+
+namespace drivebus::ipc {
+
+struct Note {
+    log::Level level = log::Level::Info;
+    std::string text;
+};
+
+// Writes the line, if there is one.
+void write_note(const std::optional<Note>& note);
+
+struct LeaseAction {
+    shm::Status status = shm::Status::Ok;  // Ok: allowed (a write goes on; a renewal is answered Ok)
+    std::uint64_t holder = 0;              // NotPermitted: who holds it
+    std::uint32_t lease_ms = 0;            // the length taken or renewed
+    bool republish = false;                // the drive's lease snapshot changed
+    std::optional<Note> note;
+};
+
+struct FallbackAction {
+    std::size_t drive = 0;
+    Note note;
+    std::optional<rtu::RequestAdu> write;  // none for `hold`
+};
+
+class LeasePolicy {
+public:
+    explicit LeasePolicy(const config::BusConfig& bus);
+
+    // A write that touches a command or reference register of `drive` (kBroadcast: a
+    // broadcast, refused while another client holds any drive's lease).
+    LeaseAction command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now);
+    LeaseAction renew(std::size_t drive, const Origin& who, rtu::Instant now);
+    LeaseAction release(std::size_t drive, const Origin& who);
+    // Leases run out by `now`, each with what to write to its drive.
+    std::vector<FallbackAction> expire(rtu::Instant now);
+    // The bus answered a fallback write.
+    LeaseAction fallback_done(std::size_t drive, master::Outcome outcome, bool refused);
+
+    [[nodiscard]] std::optional<rtu::Instant> next_deadline() const { return table_.next_deadline(); }
+    [[nodiscard]] shm::LeaseStatus status(std::size_t drive) const { return table_.status(drive); }
+    [[nodiscard]] std::uint64_t expiries() const noexcept { return table_.expiries(); }
+
+private:
+    [[nodiscard]] std::string where(std::size_t drive) const;
+    const config::BusConfig& bus_;
+    LeaseTable table_;
+};
+
+}  // namespace drivebus::ipc

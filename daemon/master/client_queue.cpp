@@ -1,0 +1,93 @@
+// The scheduler's client side: per-client queues (writes and reads apart, served
+// round-robin) under the queue limit, and the lease fallbacks' slots, one per drive, ahead of
+// every client queue and outside the limit. Pure.
+#include <algorithm>
+
+#include "master/scheduler.hpp"
+
+namespace drivebus::master {
+
+std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
+    Job job;
+    job.kind = JobKind::Client;
+    job.client = request.client;
+    job.correlation = request.correlation;
+    job.request = request.request;
+    if (request.request.address == rtu::kBroadcastAddress) {
+        job.drive = kNoDrive;
+    } else if (request.probe) {
+        job.drive = kNoDrive;  // no drive's counters or health: it may not be configured
+        job.retries = 0;
+    } else if (const auto d = drive_at(request.request.address)) {
+        job.drive = *d;
+    } else {
+        return std::unexpected(SubmitError::UnknownDrive);
+    }
+    if (request.fallback) {
+        if (job.drive == kNoDrive) {
+            return std::unexpected(SubmitError::UnknownDrive);
+        }
+        if (drives_[job.drive].fallback) {
+            return std::unexpected(SubmitError::QueueFull);
+        }
+        drives_[job.drive].fallback = std::move(job);
+        return {};
+    }
+    if (queued_ >= bus_.queue_limit) {
+        return std::unexpected(SubmitError::QueueFull);
+    }
+    const bool write = !std::holds_alternative<rtu::ReadHoldingRegisters>(request.request.pdu) &&
+                       !std::holds_alternative<rtu::ReadDeviceIdentification>(request.request.pdu);
+    (write ? writes_ : reads_)[request.client].push_back(std::move(job));
+    ++queued_;
+    return {};
+}
+
+std::optional<Job> Scheduler::next_client_read() {
+    return take_client({&reads_});
+}
+
+std::optional<Job> Scheduler::take_client(std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order) {
+    for (auto* queues : order) {
+        if (queues->empty()) {
+            continue;
+        }
+        // Round-robin: the first client after the one served last.
+        auto it = queues->upper_bound(last_client_);
+        if (it == queues->end()) {
+            it = queues->begin();
+        }
+        Job job = std::move(it->second.front());
+        it->second.pop_front();
+        last_client_ = it->first;
+        if (it->second.empty()) {
+            queues->erase(it);
+        }
+        --queued_;
+        return job;
+    }
+    return std::nullopt;
+}
+
+std::optional<Job> Scheduler::next_fallback() {
+    for (Drive& drive : drives_) {
+        if (drive.fallback) {
+            return std::exchange(drive.fallback, std::nullopt);
+        }
+    }
+    return std::nullopt;
+}
+
+std::vector<Job> Scheduler::take_client_jobs() {
+    std::vector<Job> jobs;
+    for (auto* queues : {&writes_, &reads_}) {
+        for (auto& [client, queue] : *queues) {
+            jobs.insert(jobs.end(), queue.begin(), queue.end());
+        }
+        queues->clear();
+    }
+    queued_ = 0;
+    return jobs;
+}
+
+}  // namespace drivebus::master

@@ -1,0 +1,172 @@
+// Every request gets exactly one answer (the intake's decisions and the real bus thread, no
+// RouDi): requests the intake refuses are answered at once, requests the bus refuses later
+// (bus down) come back through the results ring and are answered then, and the pending book
+// returns to empty, so memory stays flat however many are refused.
+#include <gtest/gtest.h>
+#include <poll.h>
+
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "bus/bus_loop.hpp"
+#include "fixtures.hpp"
+#include "ipc/intake_core.hpp"
+#include "sim_process.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+// The test's "route" for each request: its number, to count its answers.
+using Route = std::size_t;
+
+shm::Request read_fd00(std::uint64_t client) {
+    shm::Request r;
+    r.size = sizeof r;
+    r.kind = shm::RequestKind::Read;
+    r.client = client;
+    r.correlation = client;
+    shm::assign(r.drive, "pump");
+    shm::assign(r.client_name, "flood");
+    r.start = 0xFD00;
+    r.count = 1;
+    return r;
+}
+
+long rss_anon_kb() {
+    std::ifstream in("/proc/self/status");
+    for (std::string line; std::getline(in, line);) {
+        if (line.rfind("RssAnon:", 0) == 0) {
+            return std::stol(line.substr(8));
+        }
+    }
+    return -1;
+}
+
+class Answers : public ::testing::Test {
+protected:
+    std::shared_ptr<const Profile> atv21 = load("atv21");
+    config::BusConfig config = bus();
+    std::unique_ptr<bus::BusLoop> loop;
+    std::unique_ptr<ipc::LeasePolicy> leases;
+    std::unique_ptr<ipc::IntakeCore<Route>> intake;
+    std::vector<unsigned> answers;  // per request
+    std::map<shm::Status, std::size_t> statuses;
+
+    void start(const std::filesystem::path& device) {
+        config.device = device;
+        config.drives.push_back(drive("pump", 1, atv21));
+        loop = std::make_unique<bus::BusLoop>(config, master::EngineCallbacks{});
+        ASSERT_TRUE(loop->start().has_value());
+        leases = std::make_unique<ipc::LeasePolicy>(config);
+        intake = std::make_unique<ipc::IntakeCore<Route>>(
+            config, *leases, [this](const master::ClientRequest& r) { return loop->submit(r).has_value(); });
+    }
+    void TearDown() override {
+        if (loop) {
+            loop->stop();
+        }
+    }
+    // One request from `client`; `bus_up` as the intake believes it (the bus may know better).
+    void send(std::uint64_t client, bool bus_up = true) {
+        Route route = answers.size();
+        answers.push_back(0);
+        if (const auto now = intake->accept(read_fd00(client), route, bus_up, sys::now())) {
+            count(route, *now);
+        }
+    }
+    void count(Route route, const shm::Response& r) {
+        ++answers.at(route);
+        ++statuses[r.status];
+    }
+    // Answers what the bus handed back, until nothing is in flight (or the deadline).
+    bool drain(std::chrono::milliseconds timeout = 20s) {
+        auto& h = loop->handover();
+        const auto deadline = sys::now() + timeout;
+        while (intake->book().size() > 0 && sys::now() < deadline) {
+            pollfd p{h.ready_fd(), POLLIN, 0};
+            (void)::poll(&p, 1, 100);
+            h.acknowledge();
+            bus::Finished f;
+            while (h.results.try_pop(f)) {
+                auto a = intake->finish(f);
+                if (a && a->entry.route) {
+                    count(*a->entry.route, a->response);
+                }
+            }
+        }
+        return intake->book().size() == 0;
+    }
+    void expect_each_answered_once() {
+        std::size_t wrong = 0;
+        for (const auto n : answers) {
+            wrong += n != 1 ? 1 : 0;
+        }
+        EXPECT_EQ(wrong, 0U) << "of " << answers.size() << " requests";
+    }
+};
+
+TEST_F(Answers, RequestsTheBusRefusesAreAnsweredOnceAndMemoryStaysFlat) {
+    // No such device: the line stays down, and the bus thread refuses every request it takes.
+    start("/nonexistent/drivebus-tty");
+    constexpr std::size_t kTotal = 100'000;
+    long warm = 0;
+    for (std::size_t i = 0; i < kTotal; ++i) {
+        send(i % 20);
+        if (intake->book().clients_in_flight() >= config.queue_limit) {
+            ASSERT_TRUE(drain()) << intake->book().size() << " requests never answered";
+        }
+        if (i == kTotal / 10) {
+            warm = rss_anon_kb();
+        }
+    }
+    ASSERT_TRUE(drain()) << intake->book().size() << " requests never answered";
+    expect_each_answered_once();
+    EXPECT_EQ(statuses[shm::Status::BusDown], kTotal);
+    EXPECT_EQ(intake->book().size(), 0U) << "every entry leaves the book with its answer";
+    EXPECT_EQ(intake->served(), kTotal);
+    // Besides the exact check above, the process's anonymous memory: flat within a generous
+    // margin (the answers vector itself grows by 360 KB here).
+    const long end = rss_anon_kb();
+    EXPECT_LT(end - warm, 4096) << "RssAnon grew from " << warm << " to " << end << " kB";
+}
+
+TEST_F(Answers, AFloodOfManyClientsIsAnsweredRequestForRequest) {
+    SimProcess sim({"--drive", "1:atv21", "--no-pace"});
+    config.queue_limit = 16;
+    start(sim.link());
+    ASSERT_TRUE(wait_until([&] { return loop->up(); }, 10s));
+    // 20 clients with 12 requests each in flight at once, five times over.
+    std::size_t sent = 0;
+    for (int round = 0; round < 5; ++round) {
+        for (int k = 0; k < 12; ++k) {
+            for (std::uint64_t client = 1; client <= 20; ++client) {
+                send(client);
+                ++sent;
+            }
+        }
+        ASSERT_TRUE(drain()) << intake->book().size() << " requests never answered";
+    }
+    expect_each_answered_once();
+    EXPECT_EQ(answers.size(), sent);
+    EXPECT_EQ(statuses[shm::Status::QueueFull] + statuses[shm::Status::Ok], sent)
+        << "ok " << statuses[shm::Status::Ok] << ", queue full " << statuses[shm::Status::QueueFull];
+    EXPECT_GE(statuses[shm::Status::Ok], 5U * config.queue_limit);
+    EXPECT_EQ(loop->status().counters.queue_rejections, 0U) << "the one limit is the intake's";
+    EXPECT_EQ(intake->queue_full(), statuses[shm::Status::QueueFull]) << "and the intake counts what it refuses";
+}
+
+TEST_F(Answers, TheIntakeAnswersBusDownWithoutBookingWhenItKnowsTheLineIsDown) {
+    start("/nonexistent/drivebus-tty");
+    for (int i = 0; i < 100; ++i) {
+        send(1, false);
+    }
+    expect_each_answered_once();
+    EXPECT_EQ(statuses[shm::Status::BusDown], 100U);
+    EXPECT_EQ(intake->book().size(), 0U);
+}
+
+}  // namespace
+}  // namespace drivebus::test
