@@ -28,6 +28,7 @@ struct Finished {
     std::uint8_t exception = 0;  // the Modbus exception code, when outcome is Exception
     std::uint8_t attempts = 0;
     rtu::Instant finished{};
+    rtu::Duration late_latency{};                      // Late: the latest late reply, from its attempt
     rtu::RegisterValues words;                         // a read's values
     std::array<std::array<char, 64>, 3> identity{};    // FC43/14: vendor, product code, revision
 };
@@ -40,6 +41,7 @@ static_assert(std::is_trivially_copyable_v<master::ClientRequest>);
     f.outcome = result.outcome;
     f.attempts = static_cast<std::uint8_t>(std::min(result.attempts, 255U));
     f.finished = result.finished;
+    f.late_latency = result.late_latency;
     if (const auto code = result.exception()) {
         f.exception = static_cast<std::uint8_t>(*code);
     }

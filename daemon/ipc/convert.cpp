@@ -119,7 +119,7 @@ void fill_response(const bus::Finished& f, shm::Response& out) noexcept {
     case master::Outcome::Late:
         out.status = shm::Status::Late;
         out.late_us = static_cast<std::uint32_t>(
-            std::min<std::int64_t>(ns(result.late_latency) / 1000, std::numeric_limits<std::uint32_t>::max()));
+            std::min<std::int64_t>(ns(f.late_latency) / 1000, std::numeric_limits<std::uint32_t>::max()));
         break;
     }
     if (f.exception != 0) {
