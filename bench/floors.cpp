@@ -84,7 +84,7 @@ std::vector<double> iceoryx_hop(std::size_t n, const fs::path& dir) {
     const auto stop_roudi = [&] {
         ::kill(roudi, SIGTERM);
         (void)wait_exit(roudi, 10s);
-        (void)test::wait_until([] { return !roudi_answers(); }, 5s);
+        (void)test::wait_until([] { return roudi_gone(); }, 5s);
     };
     if (!test::wait_until(roudi_answers, 10s)) {
         stop_roudi();

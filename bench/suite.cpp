@@ -172,7 +172,7 @@ public:
             (void)wait_exit(pid_, 10s);
             pid_ = -1;
             // Its RouDi goes with it, before anything else starts one.
-            (void)test::wait_until([] { return !roudi_answers(); }, 5s);
+            (void)test::wait_until([] { return roudi_gone(); }, 5s);
         }
     }
     [[nodiscard]] int pid() const noexcept { return pid_; }

@@ -18,6 +18,7 @@ namespace drivebus::bench {
 
 namespace fs = std::filesystem;
 using test::roudi_answers;
+using test::roudi_gone;
 
 struct Failure : std::runtime_error {
     using std::runtime_error::runtime_error;

@@ -506,7 +506,7 @@ TEST(CtlRejected, AnotherClientsLeaseRefusesTheWriteUnlessTakenOver) {
 // ---- no drivebusd, usage ----
 
 TEST(CtlNoDaemon, ListSaysDrivebusdIsNotRunning) {
-    ASSERT_TRUE(wait_until([] { return !roudi_answers(); }, 60s)) << "a RouDi runs (/tmp/roudi): stop it first";
+    ASSERT_TRUE(wait_until([] { return roudi_gone(); }, 60s)) << "a RouDi runs (/tmp/roudi): stop it first";
     const auto r = ctl({"list"});
     EXPECT_EQ(r.status, 5) << describe(r);
     expect_one_line_error(r, "drivebusd is not running");

@@ -239,7 +239,7 @@ TEST_F(DrivebusdCli, LocksItsOwnMemoryAndRunsTheIpcThreadUnderTheBusThread) {
         GTEST_SKIP() << "locking memory needs CAP_IPC_LOCK (root)";
     }
     // A daemon stopped just before may take a moment to take its RouDi with it.
-    if (!wait_until([] { return !roudi_answers(); }, 5s)) {
+    if (!wait_until([] { return roudi_gone(); }, 5s)) {
         GTEST_SKIP() << "a RouDi runs already: drivebusd would join it";
     }
     SimProcess sim({"--drive", "1:atv21"});

@@ -68,6 +68,10 @@ private:
 
 // Whether an iceoryx RouDi answers on /tmp/roudi (one runs on this machine).
 bool roudi_answers();
+// Whether no RouDi is around at all: none answers on /tmp/roudi and none holds iceoryx's lock
+// (a RouDi that is stopping closes its socket before it lets the lock go, and a drivebusd
+// started in between refuses to start).
+bool roudi_gone();
 
 // Runs a program to completion (10 s at most); returns its exit status and output.
 std::pair<int, std::string> run_program(const std::vector<std::string>& argv);

@@ -28,7 +28,7 @@ Stack::Stack(StackOptions options) {
     dir_ = fs::temp_directory_path() / ("drivebus-stack-" + std::to_string(::getpid()));
     fs::create_directories(dir_);
     // Another drivebusd (a test of another build, a benchmark) may still be stopping: give it time.
-    if (!wait_until([] { return !roudi_answers(); }, 60s)) {
+    if (!wait_until([] { return roudi_gone(); }, 60s)) {
         throw std::runtime_error("a RouDi already runs on this machine (/tmp/roudi): stop it before these tests");
     }
     bus_ = "t" + std::to_string(::getpid());
