@@ -256,6 +256,7 @@ std::expected<void, Error> Bus::Impl::open() {
     (void)listener->attachEvent(*status_subscriber, iox::popo::SubscriberEvent::DATA_RECEIVED,
                                 iox::popo::createNotificationCallback(status_arrived, *this));
     on_status_sample();  // a sample that came before the listener did
+    shm::BusStatus first;
     {
         std::unique_lock lock(mutex);
         changed.wait_for(lock, options.connect_timeout, [&] { return status.has_value(); });
@@ -263,8 +264,8 @@ std::expected<void, Error> Bus::Impl::open() {
             return std::unexpected(make_error(ErrorKind::NoSuchBus, "drivebusd does not announce bus '" + name +
                                                                         "' (drivebusctl list shows the buses)"));
         }
+        first = *status;  // the listener's thread keeps writing it
     }
-    const auto first = *status;
     const auto group = std::string(shm::view(first.control_group));
     may_request = group.empty() || user_in_group(group);
 
@@ -409,11 +410,15 @@ DriveFeed* Bus::Impl::feed(std::string_view which) {
 
 std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool wait) {
     if (!client) {
-        return std::unexpected(make_error(ErrorKind::NotPermitted,
-                                          "requests on bus '" + name + "' need membership of group " +
-                                              std::string(shm::view(status->control_group)) +
-                                              " (usermod -aG " + std::string(shm::view(status->control_group)) +
-                                              " $USER); watching needs none"));
+        std::string group;
+        {
+            std::lock_guard lock(mutex);  // the listener's thread writes the status
+            group = std::string(shm::view(status->control_group));
+        }
+        return std::unexpected(make_error(ErrorKind::NotPermitted, "requests on bus '" + name +
+                                                                       "' need membership of group " + group +
+                                                                       " (usermod -aG " + group +
+                                                                       " $USER); watching needs none"));
     }
     request.version = shm::kPayloadVersion;
     request.size = sizeof(shm::Request);
