@@ -104,9 +104,14 @@ TxPlan Bus::on_frame(const rtu::Frame& frame) {
             ++counters_.broken;
             return {};
         }
+        // Function 0 has no exception reply (0x80 alone names no function): nothing to answer.
+        const auto reply = rtu::encode_response({address, rtu::ExceptionResponse{bytes[1], *code}});
+        if (!reply) {
+            ++counters_.broken;
+            return {};
+        }
         target->advance(end_seen);
         ++counters_.requests;
-        const auto reply = rtu::encode_response({address, rtu::ExceptionResponse{bytes[1], *code}});
         ++counters_.exceptions;
         const DriveFaults& faults = faults_.for_drive(address);
         return plan_reply(*reply, faults, end_seen + options_.turnaround + faults.late);

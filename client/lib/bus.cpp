@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 #include <random>
+#include <utility>
 
 #include "bus_impl.hpp"
 #include "iceoryx_hoofs/log/logmanager.hpp"
@@ -208,16 +209,24 @@ std::expected<void, Error> ensure_runtime(const std::string& application) {
 Bus::Impl::Impl(std::string bus, ConnectOptions connect_options)
     : name(std::move(bus)), options(std::move(connect_options)), client_id(random_id()) {
     client_name = options.application + "[" + std::to_string(::getpid()) + "]";
+    gate->impl = this;
 }
 
 Bus::Impl::~Impl() {
     renewer = {};  // stops and joins
+    {
+        const std::lock_guard lock(gate->mutex);  // after a callback under way
+        gate->impl = nullptr;
+    }
     if (!alive()) {
         (void)listener.release();
+        (void)gate.release();
         // RouDi went with drivebusd: giving the ports back would touch shared memory nobody
-        // manages any more (iceoryx aborts on it). The process keeps them until it ends.
+        // manages any more (iceoryx aborts on it). The process keeps them until it ends, and
+        // the feeds with them (the listener's contexts point into them).
         for (auto& d : drives) {
             (void)d->subscriber.release();
+            (void)d.release();
         }
         (void)client.release();
         (void)status_subscriber.release();
@@ -233,16 +242,25 @@ Bus::Impl::~Impl() {
 
 namespace {
 
-void status_arrived(iox::popo::Subscriber<shm::BusStatus>* /*unused*/, Bus::Impl* impl) {
-    impl->on_status_sample();
+// A callback on the listener's thread, unless the Impl is going away.
+template <typename F>
+void through(CallbackGate& gate, F&& f) {
+    const std::lock_guard lock(gate.mutex);
+    if (gate.impl != nullptr) {
+        std::forward<F>(f)(*gate.impl);
+    }
+}
+
+void status_arrived(iox::popo::Subscriber<shm::BusStatus>* /*unused*/, CallbackGate* gate) {
+    through(*gate, [](Bus::Impl& impl) { impl.on_status_sample(); });
 }
 
 void snapshot_arrived(iox::popo::Subscriber<shm::DriveSnapshot>* /*unused*/, DriveFeed::Context* context) {
-    context->impl->on_drive_sample(*context->feed);
+    through(*context->gate, [&](Bus::Impl& impl) { impl.on_drive_sample(*context->feed); });
 }
 
-void response_arrived(iox::popo::UntypedClient* /*unused*/, Bus::Impl* impl) {
-    impl->on_response();
+void response_arrived(iox::popo::UntypedClient* /*unused*/, CallbackGate* gate) {
+    through(*gate, [](Bus::Impl& impl) { impl.on_response(); });
 }
 
 }  // namespace
@@ -255,8 +273,9 @@ std::expected<void, Error> Bus::Impl::open() {
     status_subscriber = std::make_unique<iox::popo::Subscriber<shm::BusStatus>>(
         iox::capro::ServiceDescription{id(shm::kService), id(name), id(shm::kStatusEvent)}, status_options);
     (void)listener->attachEvent(*status_subscriber, iox::popo::SubscriberEvent::DATA_RECEIVED,
-                                iox::popo::createNotificationCallback(status_arrived, *this));
+                                iox::popo::createNotificationCallback(status_arrived, *gate));
     on_status_sample();  // a sample that came before the listener did
+    shm::BusStatus first;
     {
         std::unique_lock lock(mutex);
         changed.wait_for(lock, options.connect_timeout, [&] { return status.has_value(); });
@@ -264,8 +283,8 @@ std::expected<void, Error> Bus::Impl::open() {
             return std::unexpected(make_error(ErrorKind::NoSuchBus, "drivebusd does not announce bus '" + name +
                                                                         "' (drivebusctl list shows the buses)"));
         }
+        first = *status;  // the listener's thread keeps writing it
     }
-    const auto first = *status;
     const auto group = std::string(shm::view(first.control_group));
     may_request = group.empty() || user_in_group(group);
 
@@ -279,7 +298,7 @@ std::expected<void, Error> Bus::Impl::open() {
         if (profile) {
             feed->profile = std::make_shared<const Profile>(std::move(*profile));
         }
-        feed->context = {this, feed.get()};
+        feed->context = {gate.get(), feed.get()};
         iox::popo::SubscriberOptions o;
         o.historyRequest = 1;
         o.queueCapacity = 2;
@@ -303,7 +322,7 @@ std::expected<void, Error> Bus::Impl::open() {
         client = std::make_unique<iox::popo::UntypedClient>(
             iox::capro::ServiceDescription{id(shm::kService), id(name), id(shm::kRequestEvent)}, o);
         (void)listener->attachEvent(*client, iox::popo::ClientEvent::RESPONSE_RECEIVED,
-                                    iox::popo::createNotificationCallback(response_arrived, *this));
+                                    iox::popo::createNotificationCallback(response_arrived, *gate));
         const auto deadline = Clock::now() + options.connect_timeout;
         while (client->getConnectionState() != iox::ConnectionState::CONNECTED && Clock::now() < deadline) {
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -410,11 +429,15 @@ DriveFeed* Bus::Impl::feed(std::string_view which) {
 
 std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool wait) {
     if (!client) {
-        return std::unexpected(make_error(ErrorKind::NotPermitted,
-                                          "requests on bus '" + name + "' need membership of group " +
-                                              std::string(shm::view(status->control_group)) +
-                                              " (usermod -aG " + std::string(shm::view(status->control_group)) +
-                                              " $USER); watching needs none"));
+        std::string group;
+        {
+            std::lock_guard lock(mutex);  // the listener's thread writes the status
+            group = std::string(shm::view(status->control_group));
+        }
+        return std::unexpected(make_error(ErrorKind::NotPermitted, "requests on bus '" + name +
+                                                                       "' need membership of group " + group +
+                                                                       " (usermod -aG " + group +
+                                                                       " $USER); watching needs none"));
     }
     request.version = shm::kPayloadVersion;
     request.size = sizeof(shm::Request);

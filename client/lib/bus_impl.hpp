@@ -16,6 +16,8 @@
 
 namespace drivebus {
 
+struct CallbackGate;
+
 struct DriveFeed {
     std::string name;
     std::uint8_t address = 0;
@@ -24,9 +26,18 @@ struct DriveFeed {
     std::optional<shm::DriveSnapshot> last;  // guarded by Bus::Impl::mutex
     std::map<std::uint64_t, std::function<void(const shm::DriveSnapshot&)>> callbacks;
     struct Context {
-        Bus::Impl* impl = nullptr;
+        CallbackGate* gate = nullptr;
         DriveFeed* feed = nullptr;
     } context;
+};
+
+// The listener's callbacks reach Bus::Impl only through this: ~Impl closes it once a callback
+// under way has returned, before anything a callback touches goes away. When drivebusd is gone
+// the listener cannot be destroyed and its thread keeps running: the gate and the feeds its
+// callbacks name then stay until the process ends, with the ports.
+struct CallbackGate {
+    std::mutex mutex;
+    Bus::Impl* impl = nullptr;  // null: closed
 };
 
 struct Lease {
@@ -74,6 +85,7 @@ struct Bus::Impl {
     std::unique_ptr<iox::popo::Subscriber<shm::BusStatus>> status_subscriber;
     std::unique_ptr<iox::popo::UntypedClient> client;
     std::unique_ptr<iox::popo::Listener> listener;
+    std::unique_ptr<CallbackGate> gate = std::make_unique<CallbackGate>();
     std::jthread renewer;
 };
 

@@ -93,6 +93,17 @@ TEST_F(BusTest, MalformedRequestsGetTheSpecException) {
     EXPECT_EQ(plan2[2].value, 0x01);
 }
 
+// Function 0 has no exception reply (0x80 alone names no function): the frame is
+// counted as broken and gets no reply (found by fuzz_sim_frames: the reply was used unbuilt).
+TEST_F(BusTest, FunctionZeroGetsNoReply) {
+    rtu::Adu fc00;
+    fc00.append(hex("01 00 06 01 03 FD"));
+    fc00.append_crc();
+    EXPECT_TRUE(bus.on_frame(frame({fc00.bytes().begin(), fc00.bytes().end()})).empty());
+    EXPECT_EQ(bus.counters().broken, 1U);
+    EXPECT_EQ(bus.counters().requests, 0U);
+}
+
 TEST_F(BusTest, CrcFault) {
     ASSERT_TRUE(bus.faults().apply(1, "crc=1").has_value());
     const auto plan = bus.on_frame(frame(hex("01 03 FD 00 00 01 B5 A6")));
