@@ -145,6 +145,8 @@ private:
             loop_.remove(port_->fd());
             port_.reset();
         }
+        sending_.reset();
+        waiting_for_room_ = false;
         direction_.reset();
         tracker_.reset();
     }
@@ -162,6 +164,9 @@ private:
     void on_readable(sys::Readiness ready) {
         if (ready.hung_up) {
             lost(port_->device().string() + ": hung up");
+        }
+        if (ready.writable && port_ && sending_) {
+            continue_sending();
         }
         std::array<std::uint8_t, 512> buffer{};
         while (port_) {
@@ -209,7 +214,10 @@ private:
                 engine_.on_time(now);
             }
         }
-        if (port_ && tracker_ && !tracker_->busy()) {
+        if (port_ && sending_ && now >= sending_->give_up) {
+            lost(port_->device().string() + ": output stalled, the port took no more of the request");
+        }
+        if (port_ && tracker_ && !tracker_->busy() && !sending_) {
             transmit(now);
         }
         publish_status();
@@ -251,29 +259,44 @@ private:
             return;
         }
         const rtu::Instant writing = sys::now();
-        std::size_t done = 0;
-        for (int stalls = 0; done < adu->size();) {
-            auto n = port_->write(adu->bytes().subspan(done));
+        sending_ = Sending{*adu, 0, due, writing, writing + options_.output_stall};
+        continue_sending();
+    }
+
+    // Writes what the port takes of the request being sent. When its output buffer is full the
+    // loop waits for room (EPOLLOUT) with everything else, and comes back here; the request
+    // counts as written once the port has taken all of it.
+    void continue_sending() {
+        while (sending_->done < sending_->adu.size()) {
+            auto n = port_->write(sending_->adu.bytes().subspan(sending_->done));
             if (!n) {
                 lost(port_->device().string() + ": " + n.error().message());
                 return;
             }
-            done += *n;
             if (*n == 0) {
-                // The output buffer is full: wait for room, briefly, rather than spin.
-                pollfd p{port_->fd(), POLLOUT, 0};
-                if (::poll(&p, 1, 10) <= 0 && ++stalls > 100) {
-                    lost(port_->device().string() + ": output stalled for a second");
-                    return;
+                if (!waiting_for_room_) {
+                    if (auto watched = loop_.watch_writable(port_->fd(), true); !watched) {
+                        lost(port_->device().string() + ": " + watched.error().message());
+                        return;
+                    }
+                    waiting_for_room_ = true;
                 }
+                return;
             }
+            sending_->done += *n;
         }
+        if (waiting_for_room_) {
+            (void)loop_.watch_writable(port_->fd(), false);
+            waiting_for_room_ = false;
+        }
+        const Sending sent = *sending_;
+        sending_.reset();
         const rtu::Instant written = sys::now();
         written_at_ = written;
         engine_.written(written);
-        tracker_->started(written, adu->size());
+        tracker_->started(written, sent.adu.size());
         if (options_.on_written) {
-            options_.on_written(WriteTrace{due, writing, written, engine_.attempts(), engine_.scheduled()});
+            options_.on_written(WriteTrace{sent.due, sent.writing, written, engine_.attempts(), engine_.scheduled()});
         }
     }
 
@@ -310,6 +333,9 @@ private:
         }
         if (!port_) {
             consider(reopen_at_);
+        }
+        if (sending_) {
+            consider(sending_->give_up);
         }
         consider(desk_.next_retry());
         // The loop goes round at least this often, so that its heartbeat shows it is alive
@@ -362,6 +388,16 @@ private:
     rtu::Instant next_status_copy_{};
     bool status_copy_up_ = false;
     std::optional<rtu::Instant> armed_;
+    // A request the port has not taken whole yet.
+    struct Sending {
+        rtu::Adu adu;
+        std::size_t done = 0;
+        rtu::Instant due;
+        rtu::Instant writing;
+        rtu::Instant give_up;
+    };
+    std::optional<Sending> sending_;
+    bool waiting_for_room_ = false;
 
     const config::BusConfig& bus_;
     const LoopOptions& options_;

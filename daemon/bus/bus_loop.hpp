@@ -37,6 +37,8 @@ struct LoopOptions {
     rtu::Duration send_spin{};
     // Called on the bus thread after each request's write(). For benchmarks.
     std::function<void(const WriteTrace&)> on_written;
+    // A request the port's output buffer has not taken within this is the line lost.
+    rtu::Duration output_stall = std::chrono::seconds(1);
 };
 
 // What other threads see of the bus: the engine's status without the name, copied through a

@@ -31,6 +31,17 @@ void EventLoop::add(int fd, std::function<void(Readiness)> on_ready) {
     handlers_[fd] = std::make_shared<std::function<void(Readiness)>>(std::move(on_ready));
 }
 
+std::expected<void, SysError> EventLoop::watch_writable(int fd, bool on) {
+    epoll_event ev{};
+    ev.events = EPOLLIN | (on ? EPOLLOUT : 0U);
+    ev.data.fd = fd;
+    auto ok = posix_call("epoll_ctl", [&] { return ::epoll_ctl(epoll_.get(), EPOLL_CTL_MOD, fd, &ev); });
+    if (!ok) {
+        return std::unexpected(ok.error());
+    }
+    return {};
+}
+
 void EventLoop::remove(int fd) {
     ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, fd, nullptr);
     handlers_.erase(fd);
@@ -51,7 +62,8 @@ std::expected<void, SysError> EventLoop::run() {
             const auto it = handlers_.find(event.data.fd);
             if (it != handlers_.end()) {
                 const auto handler = it->second;  // a handler may remove itself
-                (*handler)(Readiness{(event.events & EPOLLIN) != 0, (event.events & (EPOLLHUP | EPOLLERR)) != 0});
+                (*handler)(Readiness{(event.events & EPOLLIN) != 0, (event.events & (EPOLLHUP | EPOLLERR)) != 0,
+                                     (event.events & EPOLLOUT) != 0});
             }
         }
     }

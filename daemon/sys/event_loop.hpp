@@ -14,7 +14,8 @@ namespace drivebus::sys {
 // vhangup()) reports EPOLLHUP and EPOLLERR on every wait from then on, along with EPOLLIN.
 struct Readiness {
     bool readable = false;
-    bool hung_up = false;  // EPOLLHUP or EPOLLERR
+    bool hung_up = false;   // EPOLLHUP or EPOLLERR
+    bool writable = false;  // EPOLLOUT, while watch_writable() asks for it
 };
 
 class EventLoop {
@@ -27,6 +28,9 @@ public:
     // owner must close it rather than read on.
     void add(int fd, std::function<void(Readiness)> on_ready);
     void remove(int fd);
+    // Whether `fd`'s callback is also called when it can be written (EPOLLOUT): for a writer
+    // whose output buffer was full, so that it waits in the loop instead of beside it.
+    std::expected<void, SysError> watch_writable(int fd, bool on);
     // Runs until stop(); returns the error that ended it, if any.
     std::expected<void, SysError> run();
     void stop() noexcept { running_ = false; }

@@ -1,6 +1,9 @@
 // The master's bus thread on a real pty against drivebus-sim, with real time, real threads
 // and the simulator's fault injection. Every wait is a condition with a deadline.
 #include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <termios.h>
 #include <gtest/gtest.h>
 #include <sys/ioctl.h>
 
@@ -10,6 +13,7 @@
 #include <mutex>
 
 #include "bus/bus_loop.hpp"
+#include "rtu/codec.hpp"
 #include "fixtures.hpp"
 #include "sim_process.hpp"
 
@@ -319,6 +323,61 @@ TEST_F(BusLoopTest, HangUpIsLineDownWithoutSpinning) {
     EXPECT_EQ(recorder.latest("fan")->registers.at(450).value, kFanValue(0));
     EXPECT_EQ(loop->status().counters.line_down, 1U);
     EXPECT_EQ(recorder.wrong_values(), 0U);
+}
+
+
+// A port that takes no output (stopped, as by an XOFF, or its buffer full): the bus thread
+// waits for room in its event loop, not in a wait of its own, so it still reads what arrives
+// meanwhile; the request goes out whole once there is room.
+TEST(BusLoopOutput, AFullOutputBufferIsWaitedForInTheLoop) {
+    int master_fd = -1;
+    int slave_fd = -1;
+    ASSERT_EQ(::openpty(&master_fd, &slave_fd, nullptr, nullptr, nullptr), 0) << std::strerror(errno);
+    const std::string slave_path = ::ttyname(slave_fd);
+    config::BusConfig config = bus();
+    config.device = slave_path;
+    config.drives.push_back(drive("pump", 1, load("atv21")));  // nothing polled: only what is asked
+    bus::LoopOptions options;
+    options.output_stall = 60s;
+    bus::BusLoop loop(config, {}, options);
+    ASSERT_TRUE(loop.start().has_value());
+    ASSERT_TRUE(wait_until([&] { return loop.up(); }, 10s));
+    // Stop the tty's output (as an XOFF would): the port takes nothing until it is restarted.
+    ASSERT_EQ(::tcflow(slave_fd, TCOOFF), 0) << std::strerror(errno);
+    ASSERT_TRUE(loop.submit({1, 7, {1, rtu::ReadHoldingRegisters{0xFD00, 1}}}).has_value());
+    // While the request waits for room, three stray characters come in: the bus thread reads
+    // them (a frame too short to be anything) with the line still up and nothing written.
+    const std::array<std::uint8_t, 3> stray{0x11, 0x22, 0x33};
+    ASSERT_EQ(::write(master_fd, stray.data(), stray.size()), 3);
+    ASSERT_TRUE(wait_until([&] { return loop.status().counters.noise >= 1; }, 10s));
+    EXPECT_EQ(loop.status().counters.line_down, 0U);
+    EXPECT_EQ(loop.status().counters.transmissions, 0U) << "the request is not written yet";
+    EXPECT_TRUE(loop.up());
+    // Room again: the request goes out whole.
+    ASSERT_EQ(::tcflow(slave_fd, TCOON), 0) << std::strerror(errno);
+    const auto request = rtu::encode_request({1, rtu::ReadHoldingRegisters{0xFD00, 1}}).value();
+    std::vector<std::uint8_t> seen;
+    const bool arrived = wait_until(
+        [&] {
+            std::array<std::uint8_t, 256> buffer{};
+            pollfd p{master_fd, POLLIN, 0};
+            while (::poll(&p, 1, 0) > 0) {
+                const ssize_t n = ::read(master_fd, buffer.data(), buffer.size());
+                if (n <= 0) {
+                    break;
+                }
+                seen.insert(seen.end(), buffer.begin(), buffer.begin() + n);
+            }
+            return seen.size() >= request.size();
+        },
+        10s);
+    ASSERT_TRUE(arrived) << seen.size() << " of " << request.size() << " bytes";
+    EXPECT_TRUE(std::equal(request.bytes().begin(), request.bytes().end(), seen.begin()));
+    EXPECT_TRUE(wait_until([&] { return loop.status().counters.transmissions == 1; }, 10s));
+    EXPECT_EQ(loop.status().counters.line_down, 0U);
+    loop.stop();
+    ::close(slave_fd);
+    ::close(master_fd);
 }
 
 }  // namespace
