@@ -1,6 +1,7 @@
 // libFuzzer target: the framer fed arbitrary reads at arbitrary times. Input is a sequence of
 // records: [gap in 10 us units][flags][length][bytes...]. Checks that every character ends
-// up in exactly one frame or discarded frame and that emitted frames are well formed.
+// up in exactly one frame or discarded frame, that emitted frames are well formed, and that a
+// poll at the framer's deadline closes whatever is open.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -51,6 +52,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     framer.poll(now + kTiming.t3_5 + kTiming.character);
     take();
+    // An expected reply that has begun stays open to its wire bound: the framer says when.
+    if (const auto deadline = framer.deadline()) {
+        framer.poll(*deadline);
+        take();
+    }
     if (framer.frame_open() || accounted != framer.stats().characters) {
         std::abort();
     }
