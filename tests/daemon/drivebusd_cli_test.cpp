@@ -235,10 +235,10 @@ std::optional<std::pair<int, int>> thread_scheduling(int pid, const std::string&
 // maps twice (RouDi and the runtime) at tens of MiB each: locked, it made 545 MB of VmLck. The
 // bus thread runs SCHED_FIFO 50, the ipc thread (control leases) SCHED_FIFO 40.
 TEST_F(DrivebusdCli, LocksItsOwnMemoryAndRunsTheIpcThreadUnderTheBusThread) {
-#if defined(__SANITIZE_ADDRESS__)
-    // AddressSanitizer reserves terabytes of shadow memory in the process: what lock_memory()
-    // looks through is then the sanitizer's, not the daemon's. The g++ stage runs this test.
-    GTEST_SKIP() << "memory locking is measured without AddressSanitizer";
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    // A sanitizer reserves terabytes of shadow memory in the process: what lock_memory() looks
+    // through is then the sanitizer's, not the daemon's. The g++ stage runs this test.
+    GTEST_SKIP() << "memory locking is measured without a sanitizer";
 #endif
     if (::geteuid() != 0) {
         GTEST_SKIP() << "locking memory needs CAP_IPC_LOCK (root)";
