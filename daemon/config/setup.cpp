@@ -3,23 +3,10 @@
 // them into selector writes), and the start-up warnings of a valid configuration.
 #include <algorithm>
 
+#include "profile/block_choice.hpp"
 #include "read.hpp"
 
 namespace drivebus::config {
-namespace {
-
-// The code of `block` that selects `target`; nullopt when none does.
-std::optional<std::uint16_t> choice_of(const Profile& profile, const IndirectBlock& block, std::uint16_t target) {
-    for (const auto& [code, name] : block.choices) {
-        const RegisterInfo* r = profile.find(std::string_view(name));
-        if (r != nullptr && r->address == target) {
-            return code;
-        }
-    }
-    return std::nullopt;
-}
-
-}  // namespace
 
 namespace detail {
 namespace {
@@ -66,7 +53,7 @@ std::optional<std::vector<std::uint16_t>> write_targets(Section& s, const Profil
     std::vector<std::uint16_t> targets;
     for (const auto& name : *names) {
         const RegisterInfo* r = profile.find(std::string_view(name));
-        if (r == nullptr || !r->address || !choice_of(profile, *block, *r->address)) {
+        if (r == nullptr || !r->address || !block_choice(profile, *block, *r->address)) {
             std::string choices;
             for (const auto& [code, choice] : block->choices) {
                 choices.append(choices.empty() ? "" : ", ").append(choice);

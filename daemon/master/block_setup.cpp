@@ -2,19 +2,10 @@
 
 #include <algorithm>
 
+#include "profile/block_choice.hpp"
+
 namespace drivebus::master {
 namespace {
-
-// The code of `block` that selects `target`; nullopt when none does.
-std::optional<std::uint16_t> choice_of(const Profile& profile, const IndirectBlock& block, std::uint16_t target) {
-    for (const auto& [code, name] : block.choices) {
-        const RegisterInfo* r = profile.find(std::string_view(name));
-        if (r != nullptr && r->address == target) {
-            return code;
-        }
-    }
-    return std::nullopt;
-}
 
 // Every selector of `block`, the first ones pointing at `targets` (already checked to be choices
 // of the block), the rest at nothing.
@@ -25,7 +16,7 @@ BlockSetup set_up(const Profile& profile, const IndirectBlock& block, const std:
         BlockSlot s{selector != nullptr ? selector->address : std::nullopt, 0, std::nullopt};
         // A selector with no Modbus address cannot be written: what its slot holds is unknown.
         if (slot < targets.size() && s.selector) {
-            s.value = choice_of(profile, block, targets[slot]).value_or(0);
+            s.value = block_choice(profile, block, targets[slot]).value_or(0);
             s.target = s.value != 0 ? std::optional(targets[slot]) : std::nullopt;
         }
         setup.slots.push_back(s);
