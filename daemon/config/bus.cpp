@@ -149,6 +149,7 @@ void read_timing(Section& s, const toml::table& table, BusConfig& bus) {
     if (const auto guard = duration(s, table, "late_reply_guard", 0ns, 10s)) {
         bus.late_reply_guard = *guard;
     }
+    bus.delivery_allowance = duration(s, table, "delivery_allowance", 0ns, 1s).value_or(bus.delivery_allowance);
     read_absent_backoff(s, table, bus);
     bus.queue_limit = static_cast<std::size_t>(s.integer("queue_limit", 1, 4096).value_or(64));
     bus.lock_dir = absolute_path(s, "lock_dir", Need::Optional).value_or("");
@@ -213,6 +214,7 @@ BusConfig read_bus(const toml::table& table, std::size_t index, Errors& errors, 
                   "retries",
                   "broadcast_turnaround",
                   "late_reply_guard",
+                  "delivery_allowance",
                   "absent_backoff",
                   "queue_limit",
                   "lock_dir",

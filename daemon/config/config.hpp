@@ -73,6 +73,9 @@ struct BusConfig {
     // After a time-out, how long a late reply may still come before anything is sent again;
     // unset: response_timeout.
     std::optional<Duration> late_reply_guard;
+    // How long past its wire bound a reply may still be completed by bytes the kernel held back
+    // (rtu::Framer::set_delivery_allowance()).
+    Duration delivery_allowance = std::chrono::milliseconds(50);
     Duration absent_backoff_min = std::chrono::seconds(1);  // re-probe of an absent drive
     Duration absent_backoff_max = std::chrono::seconds(30);
     std::size_t queue_limit = 64;            // client requests waiting on this bus

@@ -28,6 +28,7 @@ BusEngine::BusEngine(const config::BusConfig& bus, rtu::CharacterTiming timing, 
       options_{bus.response_timeout, bus.retries, bus.broadcast_turnaround,
                bus.late_reply_guard.value_or(bus.response_timeout), timing.t3_5} {
     status_.name = bus.name;
+    framer_.set_delivery_allowance(bus.delivery_allowance);
 }
 
 void BusEngine::line_up(rtu::Instant now) {

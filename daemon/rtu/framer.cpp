@@ -56,11 +56,11 @@ void Framer::receive(RxChar c, Instant t) noexcept {
         // Timestamps mark the end of a character, so the silence before this one is the
         // distance between ends less one character time.
         const Duration silence = t - last_ - timing_.character;
-        if (held_ && reply_open() && t > reply_bound()) {
-            // Held through a silence, it still runs past the earliest end of a reply on time:
-            // the silence was on the wire.
+        if (held_ && reply_open() && t > hold_until()) {
+            // Held through a silence, it still runs past the earliest end of a reply on time
+            // and the delivery allowance: the silence was on the wire.
             fault_ = FrameFault::InterCharacterGap;
-        } else if (silence > timing_.t1_5 && reply_open() && t <= reply_bound()) {
+        } else if (silence > timing_.t1_5 && reply_open() && t <= hold_until()) {
             // The reply cannot have ended yet: a silence here is a delivery held back (or a
             // real gap the CRC will judge). Keep the frame open.
             held_ = true;
@@ -219,7 +219,7 @@ void Framer::poll(Instant now) noexcept {
 Instant Framer::close_at() const noexcept {
     const Instant by_silence = silence_known(last_);
     if (reply_open()) {
-        return std::max(by_silence, reply_bound());
+        return std::max(by_silence, hold_until());
     }
     return by_silence;
 }

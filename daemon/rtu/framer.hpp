@@ -22,6 +22,10 @@
 // t3.5 (reply_line_free()) the frame stays open through any silence, and if the rest arrives
 // and it completes at its expected length with a good CRC it is the reply (Frame::held). The
 // master never transmits before that bound either (see BusEngine::line_free_at()).
+// On a loaded machine the worker can hold the rest back past the bound as well: a delivery
+// allowance (set_delivery_allowance()) keeps the frame open that much longer. The line may be
+// free at the bound, but the master does not send while the frame is open, so the allowance
+// costs time only when a reply really stops short on the wire.
 // A held frame that does not complete as the reply is looked at again from the byte after its
 // last silence, so noise before the reply that happened to start with the slave's address
 // does not cost the reply.
@@ -111,6 +115,10 @@ public:
     // Master: the next frame is the reply to `request` and may end at its expected length.
     // One expectation ends with one frame; the framer then returns to framing by silence.
     void expect_reply(const RequestAdu& request) noexcept;
+    // How long past its wire bound + t3.5 an open reply from the addressed slave may still be
+    // completed by bytes the kernel held back (0: none, the default).
+    void set_delivery_allowance(Duration allowance) noexcept { allowance_ = allowance; }
+    [[nodiscard]] Duration delivery_allowance() const noexcept { return allowance_; }
     // Slave (default): every frame ends by silence.
     void expect_requests() noexcept { expectation_.reset(); }
 
@@ -130,6 +138,7 @@ private:
     [[nodiscard]] bool reply_open() const noexcept;
     [[nodiscard]] std::size_t bound_length() const noexcept;
     [[nodiscard]] Instant reply_bound() const noexcept;
+    [[nodiscard]] Instant hold_until() const noexcept { return reply_bound() + allowance_; }
     [[nodiscard]] bool resume_after_silence() noexcept;
     void note_reply_bound() noexcept;
     [[nodiscard]] Instant close_at() const noexcept;
@@ -138,6 +147,7 @@ private:
 
     CharacterTiming timing_;
     InputMarking marking_;
+    Duration allowance_{};
     ParmrkDecoder parmrk_;
 
     Adu adu_;

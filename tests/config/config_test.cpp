@@ -252,6 +252,7 @@ TEST(Defaults, AppliedWhenKeysAreAbsent) {
     EXPECT_EQ(bus.response_timeout, Duration(100ms));
     EXPECT_EQ(bus.retries, 2U);
     EXPECT_EQ(bus.broadcast_turnaround, Duration(10ms));
+    EXPECT_EQ(bus.delivery_allowance, Duration(50ms));
     EXPECT_EQ(bus.absent_backoff_min, Duration(1s));
     EXPECT_EQ(bus.absent_backoff_max, Duration(30s));
     EXPECT_EQ(bus.queue_limit, 64U);
@@ -300,6 +301,7 @@ echo = "auto"
 response_timeout = "250ms"
 retries = 0
 broadcast_turnaround = "0ms"
+delivery_allowance = "0ms"
 absent_backoff = ["500ms", "500ms"]
 queue_limit = 4096
 lock_dir = "/var/lock/")"))
@@ -315,6 +317,7 @@ lock_dir = "/var/lock/")"))
     EXPECT_EQ(bus.response_timeout, Duration(250ms));
     EXPECT_EQ(bus.retries, 0U);
     EXPECT_EQ(bus.broadcast_turnaround, Duration(0));
+    EXPECT_EQ(bus.delivery_allowance, Duration(0));
     EXPECT_EQ(bus.absent_backoff_min, Duration(500ms));
     EXPECT_EQ(bus.absent_backoff_max, Duration(500ms));
     EXPECT_EQ(bus.queue_limit, 4096U);

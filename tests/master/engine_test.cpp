@@ -239,6 +239,7 @@ TEST_F(EngineTest, ExceptionsAreResultsNotValues) {
 
 TEST_F(EngineTest, NoiseAndGapsAreSurvived) {
     add_fan();
+    config.delivery_allowance = rtu::Duration{0};  // the wire bound alone
     ASSERT_TRUE(drives.drive(2)->poke("W451", 51).has_value());
     // Noise then a 2-character silence: the reply is still found.
     ASSERT_TRUE(drives.faults().apply(2, "noise=2:2").has_value());
@@ -263,6 +264,30 @@ TEST_F(EngineTest, NoiseAndGapsAreSurvived) {
     EXPECT_GT(engine->status().counters.gap_errors, 0U);
     for (const auto& s : snapshots) {
         EXPECT_NE(s.registers.at(451).value, 53);
+    }
+    expect_silences_kept();
+}
+
+// With the delivery allowance (50 ms by default) a silence on the wire inside a reply cannot be
+// told from a delivery held back: a good reply is taken (its CRC and length say it is whole).
+// A silence longer than the allowance still spoils it.
+TEST_F(EngineTest, ASilenceWithinTheDeliveryAllowanceIsTakenAsAHeldDelivery) {
+    add_fan();
+    ASSERT_TRUE(drives.faults().apply(2, "gap=5:4").has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W451", 61).has_value());
+    start();
+    line->run_for(500ms);
+    EXPECT_EQ(last("fan").registers.at(451).value, 61);
+    EXPECT_GT(engine->status().counters.held_replies, 0U);
+    EXPECT_EQ(engine->status().counters.gap_errors, 0U);
+    // 100 characters at 19200 bit/s: 57 ms, past the bound + 50 ms.
+    ASSERT_TRUE(drives.faults().apply(2, "gap=5:100").has_value());
+    ASSERT_TRUE(drives.drive(2)->poke("W451", 62).has_value());
+    snapshots.clear();
+    line->run_for(1s);
+    EXPECT_GT(engine->status().counters.gap_errors, 0U);
+    for (const auto& s : snapshots) {
+        EXPECT_NE(s.registers.at(451).value, 62);
     }
     expect_silences_kept();
 }

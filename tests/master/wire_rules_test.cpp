@@ -64,6 +64,7 @@ protected:
         }
         EXPECT_GT(checked, 0U);
     }
+    void expect_retry_after_bound(rtu::Duration allowance);
     void expect_silences_kept() const {
         for (const auto& t : line->transmissions()) {
             ASSERT_GE(t.start - t.prior_activity, timing.t3_5) << "a request started too early";
@@ -102,21 +103,51 @@ TEST_F(WireRules, AReplyHeldBackLongerThanT35CompletesAndIsAccepted) {
     expect_silences_kept();
 }
 
+// On a busy machine the tty worker can hold the rest back for longer than t3.5: up to the
+// delivery allowance (50 ms by default) past the bound the frame stays open, and nothing is sent.
+TEST_F(WireRules, AReplyHeldBackWithinTheDeliveryAllowanceIsAccepted) {
+    add_fan();
+    ASSERT_EQ(config.delivery_allowance, rtu::Duration(50ms));
+    start();
+    hold(0, 5, timing.t3_5 + 45ms);
+    line->run_for(300ms);
+    const auto& c = engine->status().counters;
+    EXPECT_EQ(c.held_replies, 1U);
+    EXPECT_EQ(c.retries, 0U);
+    EXPECT_EQ(c.crc_errors + c.gap_errors + c.noise, 0U);
+    ASSERT_GE(line->transmissions().size(), 2U);
+    // The second request waited for the held rest, and then for t3.5 after it.
+    const auto rest = held_reply_first_ + timing.character * 24 + timing.t3_5 + 45ms;
+    EXPECT_GE(line->transmissions()[1].start, rest + timing.t3_5);
+    expect_fan_values_right();
+    expect_silences_kept();
+}
+
 TEST_F(WireRules, ARetryAfterABrokenReplyNeverStartsBeforeItsWireBound) {
+    config.delivery_allowance = rtu::Duration{0};
+    expect_retry_after_bound(config.delivery_allowance);
+}
+
+TEST_F(WireRules, ARetryAfterABrokenReplyWaitsOutTheDeliveryAllowance) {
+    expect_retry_after_bound(config.delivery_allowance);
+}
+
+void WireRules::expect_retry_after_bound(rtu::Duration allowance) {
     add_fan();
     start();
-    // The rest of the first reply comes three t3.5 after its end: past the bound, so the
-    // master takes the reply as broken and retries, but not before the reply can have ended.
-    hold(0, 5, timing.t3_5 * 3);
+    // The rest of the first reply comes three t3.5 after its end and the allowance: past
+    // them, so the master takes the reply as broken and retries, but not before the reply can
+    // have ended.
+    hold(0, 5, timing.t3_5 * 3 + allowance);
     line->run_for(300ms);
     ASSERT_GE(line->transmissions().size(), 2U);
     const auto& first = line->transmissions()[0];
     const auto& retry = line->transmissions()[1];
     EXPECT_EQ(retry.adu.bytes().size(), first.adu.bytes().size());
     // The reply's last character cannot end before 24 characters after its first; the line
-    // is free t3.5 after that.
+    // is free t3.5 after that, and the master waits the allowance out for the rest.
     ASSERT_GT(held_reply_first_, first.start);
-    EXPECT_GE(retry.start, held_reply_first_ + timing.character * 24 + timing.t3_5);
+    EXPECT_GE(retry.start, held_reply_first_ + timing.character * 24 + timing.t3_5 + allowance);
     const auto& c = engine->status().counters;
     EXPECT_EQ(c.retries, 1U);
     EXPECT_GE(c.crc_errors + c.gap_errors + c.noise, 1U);

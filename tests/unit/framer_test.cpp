@@ -210,6 +210,41 @@ TEST_P(FramerFormats, AReplyPastItsWireBoundIsCut) {
     EXPECT_EQ(framer.reply_line_free(), bound) << "the bound outlives the frame, until the next request";
 }
 
+// With a delivery allowance the reply stays open that much past its bound: a rest that comes
+// by then completes it (held); one that comes later is cut as before, at bound + allowance.
+TEST_P(FramerFormats, TheDeliveryAllowanceKeepsTheReplyOpenPastItsBound) {
+    const Duration allowance = 30ms;
+    for (const bool in_time : {true, false}) {
+        // The rest (4 bytes) in one read whose last byte ends `late` past the bound.
+        const Duration late = in_time ? allowance - timing.character : allowance + timing.character * 4;
+        Framer framer(timing);
+        framer.set_delivery_allowance(allowance);
+        Wire wire(framer, timing);
+        framer.expect_reply(kRequest);
+        wire.send(std::vector<std::uint8_t>(kReply.begin(), kReply.begin() + 3));
+        const Instant first = wire.now() - timing.character * 2;
+        const Instant bound = first + timing.character * 6 + timing.t3_5;
+        EXPECT_EQ(framer.reply_line_free(), bound) << "the wire bound does not move";
+        EXPECT_EQ(framer.deadline(), bound + allowance);
+        framer.poll(bound + allowance - 1ns);
+        EXPECT_TRUE(framer.frame_open());
+        if (!in_time) {
+            framer.poll(bound + allowance);
+            EXPECT_FALSE(framer.frame_open());
+        }
+        wire.advance(bound + late - wire.now() - timing.character * 4);
+        wire.send_in_reads(std::vector<std::uint8_t>(kReply.begin() + 3, kReply.end()), {4});
+        wire.idle_past_t35();
+        if (in_time) {
+            EXPECT_EQ(describe(drain(framer)), "frame[01 03 02 17 70 B6 50] ");
+            EXPECT_EQ(framer.stats().held_replies, 1U);
+        } else {
+            EXPECT_EQ(describe(drain(framer)), "discard(frame shorter than 4 bytes, 3) discard(CRC mismatch, 4) ");
+            EXPECT_EQ(framer.stats().held_replies, 0U);
+        }
+    }
+}
+
 TEST_P(FramerFormats, TheBoundFollowsWhatTheReplyTurnsOutToBe) {
     Framer framer(timing);
     Wire wire(framer, timing);
