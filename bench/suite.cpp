@@ -791,7 +791,7 @@ void wire_rules(const Options& o, std::vector<Row>& rows) {
                 const double ratio = quiet_rate > 0 ? run.rate / quiet_rate : 0.0;
                 r.notes += fmt::format("; loaded / quiet: **{:.3f}**", ratio);
                 r.target += ", ≥ 0.9 × quiet";
-                r.met = r.met && ratio >= 0.9;
+                r.met = *r.met && ratio >= 0.9;
             } else {
                 quiet_rate = run.rate;
             }
