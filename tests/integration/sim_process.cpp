@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -50,6 +51,9 @@ int spawn(std::string program, const std::vector<std::string>& args, const fs::p
         throw std::runtime_error("fork failed");
     }
     if (pid == 0) {
+        // A test killed by its time-out takes its children with it: a daemon left running would
+        // hold the machine's RouDi and fail every test after it.
+        ::prctl(PR_SET_PDEATHSIG, SIGTERM);
         const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         ::dup2(out, STDERR_FILENO);
         ::dup2(out, STDOUT_FILENO);

@@ -5,6 +5,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -30,6 +31,9 @@ public:
         }
         pid_ = ::fork();
         if (pid_ == 0) {
+            // A test killed by its time-out takes its children with it: a daemon left running would
+            // hold the machine's RouDi and fail every test after it.
+            ::prctl(PR_SET_PDEATHSIG, SIGTERM);
             ::dup2(fds[1], STDOUT_FILENO);
             ::dup2(fds[1], STDERR_FILENO);
             std::vector<char*> argv;
