@@ -21,6 +21,7 @@
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
 #include "log/log.hpp"
+#include "master/line_budget.hpp"
 #include "rt/kernel_facts.hpp"
 #include "rt/memory.hpp"
 #include "rt/realtime.hpp"
@@ -123,6 +124,11 @@ int run_main(int argc, char** argv) {
     }
     for (const auto& line : config::start_up_warnings(*config)) {
         log::warning(line);
+    }
+    for (const auto& bus : config->buses) {
+        for (const auto& line : master::line_budget_warnings(bus)) {
+            log::warning(line);
+        }
     }
     if (check_only) {
         std::cout << config_path << ": valid, " << describe(*config) << '\n';
