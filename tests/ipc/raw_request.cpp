@@ -2,10 +2,13 @@
 // bus's request server and sends one write (pump's FA51 = VALUE):
 //   raw_request BUS VALUE
 // Prints "answered STATUS" and exits 0 when drivebusd answered Ok; anything else is non-zero.
-//   raw_request BUS flood N
+//   raw_request BUS flood N [GO]
 // Sends N reads of the pump's FD00 at once (N <= 16, a client's response queue), then takes
-// the answers for up to 20 s: "answers A of N ok O full F other X duplicates D"; exits 0 when
-// every request was answered exactly once.
+// the answers for up to 20 s: "answers A of N ok O full F line L other X duplicates D"; exits 0
+// when every request was answered exactly once. `line` counts what a busy line or machine may
+// answer (time-out, bad frame, late, bus down), `other` everything else. With GO, it prints
+// "connected" once connected and sends only when the file GO exists, so that many clients can
+// send at the same moment.
 #include <unistd.h>
 
 #include <chrono>
@@ -49,6 +52,7 @@ int flood(iox::popo::UntypedClient& client, int n) {
     int total = 0;
     int ok = 0;
     int full = 0;
+    int line = 0;
     int other = 0;
     int duplicates = 0;
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -68,17 +72,27 @@ int flood(iox::popo::UntypedClient& client, int n) {
         ++total;
         ok += response.status == shm::Status::Ok ? 1 : 0;
         full += response.status == shm::Status::QueueFull ? 1 : 0;
-        other += response.status != shm::Status::Ok && response.status != shm::Status::QueueFull ? 1 : 0;
+        switch (response.status) {
+        case shm::Status::Ok:
+        case shm::Status::QueueFull: break;
+        case shm::Status::Timeout:
+        case shm::Status::BadFrame:
+        case shm::Status::Late:
+        case shm::Status::BusDown: ++line; break;
+        default: ++other; break;
+        }
     }
-    std::printf("answers %d of %d ok %d full %d other %d duplicates %d\n", total, n, ok, full, other, duplicates);
+    std::printf("answers %d of %d ok %d full %d line %d other %d duplicates %d\n", total, n, ok, full, line, other,
+                duplicates);
     return total == n && duplicates == 0 ? 0 : 5;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 3 && !(argc == 4 && std::string(argv[2]) == "flood")) {
-        std::fprintf(stderr, "usage: raw_request BUS VALUE | raw_request BUS flood N\n");
+    const bool flooding = (argc == 4 || argc == 5) && std::string(argv[2]) == "flood";
+    if (argc != 3 && !flooding) {
+        std::fprintf(stderr, "usage: raw_request BUS VALUE | raw_request BUS flood N [GO]\n");
         return 2;
     }
     using namespace drivebus;
@@ -86,11 +100,19 @@ int main(int argc, char** argv) {
     iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
     iox::popo::UntypedClient client({"drivebus", iox::capro::IdString_t(iox::cxx::TruncateToCapacity, argv[1]),
                                      "requests"});
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(argc == 5 ? 30 : 3);
     while (client.getConnectionState() != iox::ConnectionState::CONNECTED && std::chrono::steady_clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-    if (argc == 4) {
+    if (flooding) {
+        if (argc == 5) {
+            std::printf("connected\n");
+            std::fflush(stdout);
+            const auto go_by = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+            while (::access(argv[4], F_OK) != 0 && std::chrono::steady_clock::now() < go_by) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            }
+        }
         return flood(client, std::atoi(argv[3]));
     }
     auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
