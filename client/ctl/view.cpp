@@ -65,26 +65,11 @@ std::string timing_text(const shm::Timing& t, std::string_view what) {
 }
 
 std::vector<std::pair<std::string, std::uint64_t>> bus_counters(const shm::BusCounters& c) {
-    return {{"transmissions", c.transmissions},
-            {"replies", c.replies},
-            {"timeouts", c.timeouts},
-            {"crc_errors", c.crc_errors},
-            {"gap_errors", c.gap_errors},
-            {"parity_errors", c.parity_errors},
-            {"overflows", c.overflows},
-            {"noise", c.noise},
-            {"foreign", c.foreign},
-            {"malformed", c.malformed},
-            {"echo_mismatches", c.echo_mismatches},
-            {"retries", c.retries},
-            {"broadcasts", c.broadcasts},
-            {"exceptions", c.exceptions},
-            {"queue_rejections", c.queue_rejections},
-            {"line_down", c.line_down},
-            {"requests_served", c.requests_served},
-            {"lease_expiries", c.lease_expiries},
-            {"late_replies", c.late_replies},
-            {"held_replies", c.held_replies}};
+    std::vector<std::pair<std::string, std::uint64_t>> named;
+#define DRIVEBUS_NAME_COUNTER(name) named.emplace_back(#name, c.name);
+    DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_NAME_COUNTER)
+#undef DRIVEBUS_NAME_COUNTER
+    return named;
 }
 
 std::vector<std::pair<std::string, std::uint64_t>> drive_counters(const shm::DriveCounters& c) {

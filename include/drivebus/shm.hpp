@@ -146,6 +146,17 @@ struct BusCounters {
     std::uint64_t held_replies = 0;  // replies the kernel handed over late, still complete in time
 };
 
+// Every counter of BusCounters, in its order, for code that maps them by name (X(name) each):
+// drivebusd copies the bus thread's counters into it by name, drivebusctl names them.
+#define DRIVEBUS_SHM_BUS_COUNTERS(X)                                                                       \
+    X(transmissions) X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows)      \
+    X(noise) X(foreign) X(malformed) X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections)       \
+    X(line_down) X(exceptions) X(requests_served) X(lease_expiries) X(late_replies) X(held_replies)
+#define DRIVEBUS_SHM_COUNT_ONE(name) +1
+static_assert(sizeof(BusCounters) == sizeof(std::uint64_t) * (0 DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_SHM_COUNT_ONE)),
+              "DRIVEBUS_SHM_BUS_COUNTERS must list every field of shm::BusCounters");
+#undef DRIVEBUS_SHM_COUNT_ONE
+
 struct DriveEntry {
     std::array<char, kNameSize> name{};
     std::array<char, kProfileSize> profile{};

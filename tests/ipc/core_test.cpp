@@ -492,5 +492,54 @@ TEST(Convert, BusStatusListsTheDrivesAndTheirHealth) {
     EXPECT_EQ(out.reply_latency.max_ns, 30000);
 }
 
+// Each counter of the bus thread reaches the shared status under its own name: distinct values
+// in, the same values out, field by field as written here (not through the copy's own list).
+TEST(Convert, EveryBusCounterKeepsItsName) {
+    master::BusStatus in;
+    auto& c = in.counters;
+    c.transmissions = 1;
+    c.replies = 2;
+    c.timeouts = 3;
+    c.crc_errors = 4;
+    c.gap_errors = 5;
+    c.parity_errors = 6;
+    c.overflows = 7;
+    c.noise = 8;
+    c.foreign = 9;
+    c.malformed = 10;
+    c.echo_mismatches = 11;
+    c.retries = 12;
+    c.broadcasts = 13;
+    c.queue_rejections = 14;
+    c.line_down = 15;
+    c.late_replies = 16;
+    c.held_replies = 17;
+    c.exceptions[1] = 100;
+    c.exceptions[4] = 20;
+    shm::BusStatus out;
+    fill_status(bus(), in, {}, out);
+    const auto& o = out.counters;
+    EXPECT_EQ(o.transmissions, 1U);
+    EXPECT_EQ(o.replies, 2U);
+    EXPECT_EQ(o.timeouts, 3U);
+    EXPECT_EQ(o.crc_errors, 4U);
+    EXPECT_EQ(o.gap_errors, 5U);
+    EXPECT_EQ(o.parity_errors, 6U);
+    EXPECT_EQ(o.overflows, 7U);
+    EXPECT_EQ(o.noise, 8U);
+    EXPECT_EQ(o.foreign, 9U);
+    EXPECT_EQ(o.malformed, 10U);
+    EXPECT_EQ(o.echo_mismatches, 11U);
+    EXPECT_EQ(o.retries, 12U);
+    EXPECT_EQ(o.broadcasts, 13U);
+    EXPECT_EQ(o.queue_rejections, 14U);
+    EXPECT_EQ(o.line_down, 15U);
+    EXPECT_EQ(o.late_replies, 16U);
+    EXPECT_EQ(o.held_replies, 17U);
+    EXPECT_EQ(o.exceptions, 120U);
+    EXPECT_EQ(o.requests_served, 0U) << "the ipc side's own count, filled by the publisher";
+    EXPECT_EQ(o.lease_expiries, 0U);
+}
+
 }  // namespace
 }  // namespace drivebus::ipc
