@@ -223,7 +223,7 @@ int run_main(int argc, char** argv) {
 
     sys::EventLoop loop;
     sys::Timer status_timer;
-    loop.add(signal_fd.get(), [&] {
+    auto signals_added = loop.add(signal_fd.get(), [&] {
         signalfd_siginfo info{};
         while (::read(signal_fd.get(), &info, sizeof info) == sizeof info) {
             if (info.ssi_signo == SIGINT || info.ssi_signo == SIGTERM) {
@@ -236,7 +236,7 @@ int run_main(int argc, char** argv) {
     std::uint64_t watchdog_usec = 0;
     const bool watchdog = sd_watchdog_enabled(0, &watchdog_usec) > 0;
     std::vector<std::uint64_t> heartbeats(loops.size(), 0);
-    loop.add(status_timer.fd(), [&] {
+    auto timer_added = loop.add(status_timer.fd(), [&] {
         status_timer.acknowledge();
         bool alive = true;
         for (std::size_t i = 0; i < loops.size(); ++i) {
@@ -251,9 +251,20 @@ int run_main(int argc, char** argv) {
             sd_notify(0, "WATCHDOG=1");
         }
         sd_notifyf(0, "STATUS=%s", status_line(loops, services).c_str());
-        status_timer.arm(sys::now() + std::chrono::seconds(1));
+        if (auto armed = status_timer.arm(sys::now() + std::chrono::seconds(1)); !armed) {
+            log::error("status timer: " + armed.error().message() + "; the watchdog is no longer fed");
+        }
     });
-    status_timer.arm(sys::now() + std::chrono::seconds(1));
+    if (!signals_added || !timer_added) {
+        log::error("event loop: " + (!signals_added ? signals_added : timer_added).error().message());
+        stop_all();
+        return kExitStartup;
+    }
+    if (auto armed = status_timer.arm(sys::now() + std::chrono::seconds(1)); !armed) {
+        log::error("status timer: " + armed.error().message());
+        stop_all();
+        return kExitStartup;
+    }
     (void)loop.run();
 
     sd_notify(0, "STOPPING=1");

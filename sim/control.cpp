@@ -33,7 +33,9 @@ ControlServer::ControlServer(sys::EventLoop& loop, std::filesystem::path path, H
     if (::bind(listener_.get(), sa, sizeof addr) != 0 || ::listen(listener_.get(), 8) != 0) {
         throw std::runtime_error("control socket " + p + ": " + std::strerror(errno));
     }
-    loop_.add(listener_.get(), [this] { accept_client(); });
+    if (auto added = loop_.add(listener_.get(), [this] { accept_client(); }); !added) {
+        throw std::runtime_error("control socket " + p + ": " + added.error().message());
+    }
 }
 
 ControlServer::~ControlServer() {
@@ -51,7 +53,9 @@ void ControlServer::accept_client() {
         return;
     }
     clients_.emplace(fd, std::make_pair(sys::UniqueFd(fd), std::string{}));
-    loop_.add(fd, [this, fd] { serve(fd); });
+    if (auto added = loop_.add(fd, [this, fd] { serve(fd); }); !added) {
+        clients_.erase(fd);  // closes it: the client sees its command refused
+    }
 }
 
 void ControlServer::drop(int fd) {

@@ -272,13 +272,18 @@ int run(const Options& o) {
             }
         }
         if (const auto deadline = framer.deadline()) {
-            frame_timer.arm(*deadline);
+            if (auto armed = frame_timer.arm(*deadline); !armed) {
+                std::cerr << "drivebus-sim: frame timer: " << armed.error().message() << '\n';
+                status = kExitRuntime;
+                loop.stop();
+            }
         } else {
             frame_timer.disarm();
         }
     };
 
-    loop.add(line.fd.get(), [&] {
+    std::vector<std::expected<void, sys::SysError>> added;
+    added.push_back(loop.add(line.fd.get(), [&] {
         std::array<std::uint8_t, 4096> buffer{};
         for (;;) {
             const auto n = ::read(line.fd.get(), buffer.data(), buffer.size());
@@ -315,14 +320,14 @@ int run(const Options& o) {
             framer.feed(bytes, t);
         }
         take_events();
-    });
-    loop.add(frame_timer.fd(), [&] {
+    }));
+    added.push_back(loop.add(frame_timer.fd(), [&] {
         frame_timer.acknowledge();
         framer.poll(sys::now());
         take_events();
-    });
-    loop.add(writer.timer_fd(), [&] { writer.service(); });
-    loop.add(signal_fd.get(), [&] {
+    }));
+    added.push_back(loop.add(writer.timer_fd(), [&] { writer.service(); }));
+    added.push_back(loop.add(signal_fd.get(), [&] {
         signalfd_siginfo info{};
         while (::read(signal_fd.get(), &info, sizeof info) == sizeof info) {
             if (info.ssi_signo == SIGUSR1) {
@@ -331,7 +336,13 @@ int run(const Options& o) {
                 loop.stop();
             }
         }
-    });
+    }));
+    for (const auto& a : added) {
+        if (!a) {
+            std::cerr << "drivebus-sim: event loop: " << a.error().message() << '\n';
+            return kExitRuntime;
+        }
+    }
 
     std::optional<sim::ControlServer> control;
     if (!o.control.empty()) {

@@ -23,8 +23,8 @@ void PacedWriter::service() {
     while (!queue_.empty()) {
         rtu::Instant now = sys::now();
         const rtu::Duration wait = queue_.front().at - now;
-        if (wait > spin_) {
-            timer_.arm(queue_.front().at - spin_);
+        // A timer that cannot be armed leaves the wait to the spin below: late, never lost.
+        if (wait > spin_ && timer_.arm(queue_.front().at - spin_)) {
             return;
         }
         while (now < queue_.front().at) {

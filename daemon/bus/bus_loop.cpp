@@ -48,13 +48,19 @@ public:
           heartbeat_(outer.heartbeat_),
           wake_(outer.wake_.get()) {
         desk_.attach(engine_);
-        loop_.add(wake_, [this] { on_wake(); });
-        loop_.add(timer_.fd(), [this] {
+        auto woken = loop_.add(wake_, [this] { on_wake(); });
+        auto timed = loop_.add(timer_.fd(), [this] {
             timer_.acknowledge();
             armed_.reset();
             drive();
         });
+        if (!woken || !timed) {
+            broken_ = "bus " + bus_.name + ": event loop: " + (!woken ? woken : timed).error().message();
+        }
     }
+
+    // Why the loop cannot run, found when it was built (before its thread starts).
+    [[nodiscard]] const std::optional<std::string>& broken() const noexcept { return broken_; }
 
     void run() {
         try_open();
@@ -107,7 +113,11 @@ private:
         reopen_delay_ = {};
         reopen_at_.reset();
         limiter_.reset("open");
-        loop_.add(port_->fd(), [this](sys::Readiness ready) { on_readable(ready); });
+        if (auto added = loop_.add(port_->fd(), [this](sys::Readiness ready) { on_readable(ready); }); !added) {
+            close_port();
+            schedule_reopen("event loop: " + added.error().message(), false);
+            return;
+        }
         engine_.line_up(sys::now());
     }
 
@@ -354,7 +364,11 @@ private:
         if (armed_ && *armed_ > now && *armed_ <= *wake) {
             return;
         }
-        timer_.arm(*wake);
+        if (auto ok = timer_.arm(*wake); !ok) {
+            // Not armed: the next event on the loop (a character, a request) tries again.
+            limiter_.write(log::Level::Error, "timer", "bus " + bus_.name + ": " + ok.error().message());
+            return;
+        }
         armed_ = wake;
     }
 
@@ -388,6 +402,7 @@ private:
     rtu::Instant next_status_copy_{};
     bool status_copy_up_ = false;
     std::optional<rtu::Instant> armed_;
+    std::optional<std::string> broken_;
     // A request the port has not taken whole yet.
     struct Sending {
         rtu::Adu adu;
@@ -447,6 +462,11 @@ BusLoop::~BusLoop() {
 
 std::expected<void, std::string> BusLoop::start() {
     impl_ = std::make_unique<Impl>(bus_, callbacks_, options_, *this);
+    if (const auto& broken = impl_->broken()) {
+        std::string why = *broken;
+        impl_.reset();
+        return std::unexpected(why);
+    }
     std::promise<std::expected<void, std::string>> started;
     auto ready = started.get_future();
     thread_ = std::thread([this, &started] {

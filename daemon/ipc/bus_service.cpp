@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <fmt/format.h>
 #include <stdexcept>
@@ -58,20 +59,29 @@ struct BusService::Impl {
         sys::EventLoop events;
         sys::Timer timer;
         auto& handover = loop.handover();
-        events.add(intake.ready_fd(), [&] {
-            intake.take(sys::now());
-            republish();
-        });
-        events.add(handover.ready_fd(), [&] {
-            handover.acknowledge();
-            drain();
-            republish();
-        });
-        events.add(timer.fd(), [&] {
-            timer.acknowledge();
-            tick(timer);
-        });
-        events.add(stop_fd.get(), [&] { events.stop(); });
+        const std::array added = {events.add(intake.ready_fd(),
+                                             [&] {
+                                                 intake.take(sys::now());
+                                                 republish();
+                                             }),
+                                  events.add(handover.ready_fd(),
+                                             [&] {
+                                                 handover.acknowledge();
+                                                 drain();
+                                                 republish();
+                                             }),
+                                  events.add(timer.fd(),
+                                             [&] {
+                                                 timer.acknowledge();
+                                                 tick(timer);
+                                             }),
+                                  events.add(stop_fd.get(), [&] { events.stop(); })};
+        for (const auto& a : added) {
+            if (!a) {
+                log::error(fmt::format("bus {}: ipc event loop: {}: clients are not served", bus.name, a.error().message()));
+                return;
+            }
+        }
         intake.take(sys::now());  // what came before the listener was attached
         tick(timer);
         if (auto ran = events.run(); !ran) {
@@ -142,7 +152,9 @@ struct BusService::Impl {
         if (const auto deadline = leases.next_deadline()) {
             until = std::min(until, *deadline);
         }
-        timer.arm(until);
+        if (auto armed = timer.arm(until); !armed) {
+            log::error(fmt::format("bus {}: ipc timer: {}", bus.name, armed.error().message()));
+        }
     }
 };
 

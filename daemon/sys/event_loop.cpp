@@ -17,18 +17,19 @@ EventLoop::EventLoop() {
     epoll_.reset(*fd);
 }
 
-void EventLoop::add(int fd, std::function<void()> on_ready) {
-    add(fd, [f = std::move(on_ready)](Readiness) { f(); });
+std::expected<void, SysError> EventLoop::add(int fd, std::function<void()> on_ready) {
+    return add(fd, [f = std::move(on_ready)](Readiness) { f(); });
 }
 
-void EventLoop::add(int fd, std::function<void(Readiness)> on_ready) {
+std::expected<void, SysError> EventLoop::add(int fd, std::function<void(Readiness)> on_ready) {
     epoll_event ev{};
     ev.events = EPOLLIN;
     ev.data.fd = fd;
     if (auto ok = posix_call("epoll_ctl", [&] { return ::epoll_ctl(epoll_.get(), EPOLL_CTL_ADD, fd, &ev); }); !ok) {
-        throw std::runtime_error(ok.error().message());
+        return std::unexpected(ok.error());
     }
     handlers_[fd] = std::make_shared<std::function<void(Readiness)>>(std::move(on_ready));
+    return {};
 }
 
 std::expected<void, SysError> EventLoop::watch_writable(int fd, bool on) {
@@ -79,16 +80,22 @@ Timer::Timer() {
     fd_.reset(*fd);
 }
 
-void Timer::arm(rtu::Instant at) {
+std::expected<void, SysError> Timer::arm(rtu::Instant at) {
     itimerspec spec{};
     spec.it_value = to_timespec(at);
     if (spec.it_value.tv_sec == 0 && spec.it_value.tv_nsec == 0) {
         spec.it_value.tv_nsec = 1;  // zero would disarm
     }
-    ::timerfd_settime(fd_.get(), TFD_TIMER_ABSTIME, &spec, nullptr);
+    auto ok = posix_call("timerfd_settime",
+                         [&] { return ::timerfd_settime(fd_.get(), TFD_TIMER_ABSTIME, &spec, nullptr); });
+    if (!ok) {
+        return std::unexpected(ok.error());
+    }
+    return {};
 }
 
-void Timer::disarm() {
+void Timer::disarm() noexcept {
+    // Disarming a timerfd this object owns cannot fail (zero is always a valid value).
     const itimerspec spec{};
     ::timerfd_settime(fd_.get(), 0, &spec, nullptr);
 }

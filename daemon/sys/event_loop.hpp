@@ -23,10 +23,12 @@ public:
     EventLoop();
 
     // Calls `on_ready` whenever `fd` is readable (or hung up). The loop does not own `fd`.
-    void add(int fd, std::function<void()> on_ready);
+    // Fails as epoll_ctl does (ENOMEM, ENOSPC: the user's max_user_watches): the caller says
+    // what it was adding, since it is called on the bus thread too, where nothing may throw.
+    [[nodiscard]] std::expected<void, SysError> add(int fd, std::function<void()> on_ready);
     // The same, telling the callback which: a descriptor that has hung up stays ready, so its
     // owner must close it rather than read on.
-    void add(int fd, std::function<void(Readiness)> on_ready);
+    [[nodiscard]] std::expected<void, SysError> add(int fd, std::function<void(Readiness)> on_ready);
     void remove(int fd);
     // Whether `fd`'s callback is also called when it can be written (EPOLLOUT): for a writer
     // whose output buffer was full, so that it waits in the loop instead of beside it.
@@ -46,8 +48,9 @@ class Timer {
 public:
     Timer();
     [[nodiscard]] int fd() const noexcept { return fd_.get(); }
-    void arm(rtu::Instant at);
-    void disarm();
+    // Fails only as timerfd_settime does (an instant it cannot take).
+    [[nodiscard]] std::expected<void, SysError> arm(rtu::Instant at);
+    void disarm() noexcept;
     // Reads the expiry count (call from the readable callback).
     void acknowledge() noexcept;
 
