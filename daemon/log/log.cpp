@@ -32,7 +32,18 @@ std::string_view name_of(Level level) {
     return "info";
 }
 
-void print(Level level, std::string_view message) {
+bool is_control(char c) noexcept {
+    const auto u = static_cast<unsigned char>(c);
+    return u < 0x20 || u == 0x7F;
+}
+
+void print(Level level, std::string_view raw) {
+    std::string escaped;
+    std::string_view message = raw;
+    if (std::ranges::any_of(raw, is_control)) {
+        escaped = one_line(raw);
+        message = escaped;
+    }
     const std::lock_guard lock(g_mutex);
     if (g_journal) {
         std::fprintf(stderr, "<%d>%.*s\n", static_cast<int>(level), static_cast<int>(message.size()), message.data());
@@ -111,6 +122,23 @@ void init(std::string_view program, Level max) {
 
 bool enabled(Level level) noexcept {
     return level <= g_max.load(std::memory_order_relaxed);
+}
+
+std::string one_line(std::string_view message) {
+    std::string out;
+    out.reserve(message.size());
+    for (const char c : message) {
+        if (is_control(c)) {
+            static constexpr std::string_view kHex = "0123456789ABCDEF";
+            const auto u = static_cast<unsigned char>(c);
+            out += "\\x";
+            out += kHex[u >> 4U];
+            out += kHex[u & 0xFU];
+        } else {
+            out += c;
+        }
+    }
+    return out;
 }
 
 void write(Level level, std::string_view message) {

@@ -26,6 +26,10 @@ enum class Level : std::uint8_t { Error = 3, Warning = 4, Notice = 5, Info = 6, 
 // "drivebusd: warning: ..." otherwise. Messages above `max` are dropped.
 void init(std::string_view program, Level max);
 void write(Level level, std::string_view message);
+// `message` as it is printed: control characters (a newline, an escape sequence) become \xNN,
+// so that text from outside (a client's name, a path) can neither start a forged line of the
+// journal nor move the terminal's cursor. Clean text comes back unchanged.
+[[nodiscard]] std::string one_line(std::string_view message);
 // Whether a message at `level` would be written (check before building an expensive one).
 [[nodiscard]] bool enabled(Level level) noexcept;
 

@@ -11,6 +11,17 @@
 namespace drivebus::test {
 namespace {
 
+// A client's name or a device path can hold anything: a newline in it must not start a line
+// of its own in the journal (one that could pass for drivebusd's), nor an escape sequence
+// reach a terminal.
+TEST(LogLine, ControlCharactersCannotStartAnotherLine) {
+    EXPECT_EQ(log::one_line("control lease of pump[12]"), "control lease of pump[12]");
+    EXPECT_EQ(log::one_line("pump\n<3>drivebusd: error: forged"), "pump\\x0A<3>drivebusd: error: forged");
+    EXPECT_EQ(log::one_line("a\rb\x1B[2Jc\x7F"), "a\\x0Db\\x1B[2Jc\\x7F");
+    EXPECT_EQ(log::one_line("tab\tend"), "tab\\x09end");
+    EXPECT_EQ(log::one_line("\xC3\xA9t\xC3\xA9"), "\xC3\xA9t\xC3\xA9") << "UTF-8 passes unchanged";
+}
+
 TEST(LogRing, AFullRingDropsTheLineAndCountsIt) {
     log::Ring ring(4, false);
     for (int i = 0; i < 4; ++i) {
