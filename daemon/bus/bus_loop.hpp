@@ -82,8 +82,10 @@ public:
     [[nodiscard]] std::uint64_t heartbeat() const noexcept { return heartbeat_.load(); }
     [[nodiscard]] const config::BusConfig& config() const noexcept { return bus_; }
 
-private:
+    // What runs on the bus thread (bus_thread.hpp); only BusLoop makes one.
     class Impl;
+
+private:
     const config::BusConfig& bus_;
     master::EngineCallbacks callbacks_;
     LoopOptions options_;

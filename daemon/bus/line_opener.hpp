@@ -1,0 +1,44 @@
+// Opens a bus's port and its driver-enable control, and keeps the reopen back-off when that
+// fails or the line goes away (100 ms, doubling to 5 s). Runs on the bus thread: it logs
+// through the thread's log ring, rate-limited so that a missing adapter is one line a minute.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "config/config.hpp"
+#include "log/log.hpp"
+#include "serial/direction.hpp"
+#include "serial/port.hpp"
+
+namespace drivebus::bus {
+
+class LineOpener {
+public:
+    struct Line {
+        serial::Port port;
+        std::unique_ptr<serial::Direction> direction;
+    };
+
+    LineOpener(const config::BusConfig& bus, serial::UartControl& uart) : bus_(bus), uart_(uart) {}
+
+    // Opens the port and its direction control now. On failure the error is logged and the
+    // next try scheduled (next_try()).
+    [[nodiscard]] std::optional<Line> open(rtu::Instant now);
+    // The line that was open failed (or could not be used): try again after the back-off.
+    void failed(const std::string& why, bool gone, rtu::Instant now);
+    // When to try again, if a try is due.
+    [[nodiscard]] std::optional<rtu::Instant> next_try() const noexcept { return reopen_at_; }
+
+private:
+    [[nodiscard]] std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_direction(int fd);
+
+    const config::BusConfig& bus_;
+    serial::UartControl& uart_;
+    rtu::Duration reopen_delay_{};
+    std::optional<rtu::Instant> reopen_at_;
+    log::RateLimited limiter_{std::chrono::seconds(60)};
+};
+
+}  // namespace drivebus::bus
