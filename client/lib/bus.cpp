@@ -213,7 +213,6 @@ Bus::Impl::Impl(std::string bus, ConnectOptions connect_options)
 }
 
 Bus::Impl::~Impl() {
-    renewer = {};  // stops and joins
     {
         const std::lock_guard lock(gate->mutex);  // after a callback under way
         gate->impl = nullptr;
@@ -332,7 +331,6 @@ std::expected<void, Error> Bus::Impl::open() {
                 make_error(ErrorKind::NoSuchBus, "bus '" + name + "' takes no requests (its server did not answer)"));
         }
     }
-    renewer = std::jthread([this](std::stop_token stop) { renew_loop(std::move(stop)); });
     return {};
 }
 
@@ -427,7 +425,7 @@ DriveFeed* Bus::Impl::feed(std::string_view which) {
     return nullptr;
 }
 
-std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool wait) {
+std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (!client) {
         std::string group;
         {
@@ -446,9 +444,7 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
     {
         std::lock_guard lock(mutex);
         request.correlation = next_correlation++;
-        if (wait) {
-            waiting.emplace(request.correlation, std::nullopt);
-        }
+        waiting.emplace(request.correlation, std::nullopt);
     }
     bool sent = false;
     {
@@ -458,9 +454,6 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
             std::memcpy(loaned.value(), &request, sizeof request);
             sent = !client->send(loaned.value()).has_error();
         }
-    }
-    if (!wait) {
-        return shm::Response{};
     }
     std::unique_lock lock(mutex);
     if (!sent) {
@@ -482,38 +475,6 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
                                                                          " ms"));
     }
     return *response;
-}
-
-void Bus::Impl::renew_loop(std::stop_token stop) {
-    while (!stop.stop_requested()) {
-        std::vector<std::string> due;
-        auto next = Clock::now() + std::chrono::milliseconds(100);
-        {
-            std::unique_lock lock(mutex);
-            const auto now = Clock::now();
-            for (auto& [drive, lease] : leases) {
-                if (!lease.renewing) {
-                    continue;
-                }
-                const auto at = lease.renewed + lease.length / 4;
-                if (at <= now) {
-                    due.push_back(drive);
-                    lease.renewed = now;
-                } else {
-                    next = std::min(next, at);
-                }
-            }
-        }
-        for (const auto& drive : due) {
-            shm::Request r;
-            r.kind = shm::RequestKind::LeaseRenew;
-            shm::assign(r.drive, drive);
-            (void)call(r, /*wait=*/false);
-        }
-        std::unique_lock lock(mutex);
-        std::condition_variable_any cv;
-        cv.wait_until(lock, stop, next, [] { return false; });
-    }
 }
 
 // ---- Bus ----

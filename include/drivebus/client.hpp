@@ -4,7 +4,11 @@
 //   auto pump = bus->drive("pump");                       // by name, or "3" by address
 //   auto speed = pump->read("FD00");                      // one request on the bus
 //   pump->write("FA01", {5000});                          // takes the drive's control lease
-//   auto snap = pump->wait_snapshot(std::chrono::seconds(1));  // the latest polled values
+//   for (;;) {                                            // the application's control loop
+//       auto snap = pump->wait_snapshot(std::chrono::milliseconds(100));  // the latest polled values
+//       ...
+//       if (!pump->keep_alive()) { ... }                  // the loop is alive: renew the lease
+//   }
 //
 // Everything returns std::expected: nothing here throws. A Bus is safe to use from several
 // threads; callbacks run on the library's own thread and must not block.
@@ -185,10 +189,20 @@ public:
                                                    WriteOptions options = {}) const;
     [[nodiscard]] std::expected<Identity, Error> identify() const;
 
-    // Gives up the control lease without the fallback (the library renews it otherwise).
+    // The control lease lives only as long as the application shows it is alive: each write to
+    // the drive's command or reference renews it, and so does keep_alive(). Nothing else does:
+    // no thread of the library renews it, so a control loop that hangs or deadlocks stops
+    // renewing, and drivebusd applies the drive's fallback once the lease time (the drive's
+    // `lease`, 1 s by default) has passed since the last renewal. Call keep_alive() from the
+    // control loop itself, at least a few times per lease time (a quarter of it leaves room
+    // for a late iteration), never from a timer thread of its own.
+    //
+    // Renews this process's lease on the drive (the LeaseRenew request). NotPermitted when it
+    // holds none: it ran out (the fallback was applied), another client took it over, or no
+    // write took it; a write to the command or reference takes a fresh one.
+    [[nodiscard]] std::expected<void, Error> keep_alive() const;
+    // Gives up the control lease without the fallback.
     [[nodiscard]] std::expected<void, Error> release_control() const;
-    // Stops renewing the lease (tests: what a hung application looks like).
-    void stop_renewing() const;
 
 private:
     Drive(std::shared_ptr<Bus::Impl> bus, std::string name, std::uint8_t address, std::shared_ptr<const Profile> profile);

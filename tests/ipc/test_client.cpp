@@ -6,15 +6,23 @@
 //   test_client BUS broadcast ADDR V...   one broadcast write (FC06 or FC16) to address 0: "sent"
 //   test_client BUS flood REG             reads REG until killed: "ready" after the first
 //   test_client BUS command HZ            take the pump's lease, run forward at HZ, "holding",
-//                                         then renew until killed
-//   test_client BUS hang HZ               same; once FD00 passes 5 Hz it stops renewing (a hung
-//                                         application): "hung"
+//                                         then a control loop until killed: each new snapshot,
+//                                         keep_alive()
+//   test_client BUS hang HZ               same, the loop on its own thread; once FD00 passes 5 Hz
+//                                         that thread blocks for good after printing
+//                                         "hung T" (T: CLOCK_MONOTONIC ns just before its last
+//                                         keep_alive), while the main thread and iceoryx's stay
+//                                         alive: the main thread watches the snapshots and prints
+//                                         "expired E fallback_ok 0|1" (E: the lease's expired_ns)
 //   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
 //                                         expired and whose fallback was acknowledged:
 //                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
 // Exit status: 0, or 1 with the library's one-line error on stderr.
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -29,9 +37,32 @@ int fail(const drivebus::Error& e) {
     return 1;
 }
 
-void forever() {
+std::int64_t monotonic_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+// An application's control loop: on each new snapshot it shows it is alive. With `hang_above`,
+// it hangs (blocks on a condition that never comes) once FD00 passes that value.
+void control_loop(const drivebus::Drive& pump, std::optional<unsigned> hang_above) {
+    std::uint64_t seen = 0;
     for (;;) {
-        std::this_thread::sleep_for(std::chrono::hours(1));
+        auto s = pump.wait_snapshot(std::chrono::milliseconds(100), seen);
+        if (s) {
+            seen = s->sequence;
+        }
+        const auto before = monotonic_ns();
+        if (auto ok = pump.keep_alive(); !ok) {
+            std::fprintf(stderr, "keep_alive: %s\n", ok.error().message.c_str());
+        }
+        const auto* fd00 = s ? s->find(0xFD00) : nullptr;
+        if (hang_above && fd00 != nullptr && fd00->value > *hang_above) {
+            std::printf("hung %lld\n", static_cast<long long>(before));
+            std::mutex m;
+            std::condition_variable never;
+            std::unique_lock lock(m);
+            never.wait(lock, [] { return false; });
+        }
     }
 }
 
@@ -147,23 +178,26 @@ int main(int argc, char** argv) {
             return fail(ok.error());
         }
         std::printf("holding\n");
-        if (mode == "hang") {
-            // Renew until the drive runs, then hang: the lease is no longer renewed.
-            std::uint64_t seen = 0;
-            for (;;) {
-                auto s = pump->wait_snapshot(std::chrono::seconds(1), seen);
-                if (s) {
-                    seen = s->sequence;
-                    const auto* fd00 = s->find(0xFD00);
-                    if (fd00 != nullptr && fd00->value > 500) {
-                        break;
-                    }
-                }
-            }
-            pump->stop_renewing();
-            std::printf("hung\n");
+        if (mode == "command") {
+            control_loop(*pump, std::nullopt);
         }
-        forever();
+        // The hung application: its control thread blocks, everything else of the process runs.
+        std::thread control([&] { control_loop(*pump, 500U); });
+        control.detach();
+        std::uint64_t seen = 0;
+        bool told = false;
+        for (;;) {
+            auto s = pump->wait_snapshot(std::chrono::milliseconds(200), seen);
+            if (!s) {
+                continue;
+            }
+            seen = s->sequence;
+            if (!told && s->lease.state == drivebus::shm::LeaseState::Expired && s->lease.fallback_ok != 0) {
+                std::printf("expired %lld fallback_ok %u\n", static_cast<long long>(s->lease.expired_ns),
+                            static_cast<unsigned>(s->lease.fallback_ok));
+                told = true;
+            }
+        }
     }
     std::fprintf(stderr, "test_client: bad arguments for mode %s\n", mode.c_str());
     return 2;
