@@ -439,10 +439,20 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     }
     request.version = shm::kPayloadVersion;
     request.size = sizeof(shm::Request);
-    request.client = client_id;
-    shm::assign(request.client_name, client_name);
+    if (request.client == 0) {
+        request.client = client_id;
+    }
+    if (shm::view(request.client_name).empty()) {
+        shm::assign(request.client_name, client_name);
+    }
+    if (request.pid == 0) {
+        request.pid = static_cast<std::int32_t>(::getpid());
+    }
     {
         std::lock_guard lock(mutex);
+        if (request.lease_token == shm::LeaseToken{}) {
+            request.lease_token = lease_token;
+        }
         request.correlation = next_correlation++;
         waiting.emplace(request.correlation, std::nullopt);
     }
@@ -465,6 +475,9 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
                                            [&] { return waiting.at(request.correlation).has_value(); });
     auto response = waiting.at(request.correlation);
     waiting.erase(request.correlation);
+    if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
+        lease_token = response->lease_token;  // this request took a lease: its token from now on
+    }
     if (!answered || !response) {
         const bool gone = !(status.has_value() && Clock::now() - status_time < options.daemon_silence);
         return std::unexpected(gone ? make_error(ErrorKind::DaemonGone,
@@ -595,7 +608,8 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
     Error e;
     e.exception = r.exception;
     e.reason = r.reason;
-    e.lease_holder = r.lease_holder;
+    e.lease_holder = std::string(shm::view(r.lease_holder));
+    e.lease_holder_pid = r.lease_holder_pid;
     switch (r.status) {
     case shm::Status::Ok: return {};
     case shm::Status::Exception:
@@ -632,8 +646,15 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
         break;
     case shm::Status::NotPermitted:
         e.kind = ErrorKind::NotPermitted;
-        e.message = "another client (id " + std::to_string(r.lease_holder) + ") holds the control lease of " + what +
-                    "; take it over explicitly (drivebusctl write --take-over, WriteOptions::take_over)";
+        if (e.lease_holder.empty()) {
+            e.message = "this process does not hold the control lease of " + what +
+                        " (it ran out, was taken over or was never taken): write the command or reference to "
+                        "take it";
+        } else {
+            e.message = "another client (" + e.lease_holder + ", pid " + std::to_string(e.lease_holder_pid) +
+                        ") holds the control lease of " + what +
+                        "; take it over explicitly (drivebusctl write --take-over, WriteOptions::take_over)";
+        }
         break;
     }
     return std::unexpected(e);

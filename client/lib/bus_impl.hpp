@@ -1,6 +1,6 @@
 // The state behind a Bus: iceoryx ports, the listener thread that takes samples and responses,
-// requests waiting for their response, and the leases this process holds. Nothing here renews
-// a lease on its own: only the application's writes and keep_alive() calls do.
+// requests waiting for their response, and the token of the leases this Bus took. Nothing here
+// renews a lease on its own: only the application's writes and keep_alive() calls do.
 #pragma once
 
 #include <condition_variable>
@@ -41,10 +41,6 @@ struct CallbackGate {
     Bus::Impl* impl = nullptr;  // null: closed
 };
 
-struct Lease {
-    std::chrono::milliseconds length{0};  // as drivebusd granted it
-};
-
 struct Bus::Impl {
     Impl(std::string bus, ConnectOptions connect_options);
     ~Impl();
@@ -77,7 +73,9 @@ struct Bus::Impl {
     std::uint64_t next_callback = 1;
     std::unordered_map<std::uint64_t, std::optional<shm::Response>> waiting;  // by correlation
     std::uint64_t next_correlation = 1;
-    std::map<std::string, Lease> leases;  // by drive name: the leases this process took
+    // The token of the control leases this Bus took (drivebusd gives one client one token for
+    // all its live leases): presented by every request. All zero: none taken.
+    shm::LeaseToken lease_token{};
 
     std::mutex client_mutex;  // the client port is used by callers and the listener
     std::unique_ptr<iox::popo::Subscriber<shm::BusStatus>> status_subscriber;

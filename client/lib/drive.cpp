@@ -132,12 +132,6 @@ std::expected<void, Error> Drive::write(std::uint16_t address, std::span<const s
     if (!response) {
         return std::unexpected(response.error());
     }
-    if (response->lease_ms > 0) {
-        // This write took or renewed the drive's control lease: the application's own activity
-        // is what keeps it (its writes, keep_alive()), never a thread of the library.
-        std::lock_guard lock(bus_->mutex);
-        bus_->leases[name_].length = std::chrono::milliseconds(response->lease_ms);
-    }
     return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
@@ -173,24 +167,10 @@ std::expected<void, Error> Drive::keep_alive() const {
     if (!response) {
         return std::unexpected(response.error());
     }
-    if (response->status == shm::Status::NotPermitted) {
-        {
-            std::lock_guard lock(bus_->mutex);
-            bus_->leases.erase(name_);
-        }
-        return std::unexpected(make_error(ErrorKind::NotPermitted,
-                                          "this process does not hold the control lease of drive '" + name_ +
-                                              "' (it ran out, was taken over, or was never taken): write the "
-                                              "command or reference to take it"));
-    }
     return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
 std::expected<void, Error> Drive::release_control() const {
-    {
-        std::lock_guard lock(bus_->mutex);
-        bus_->leases.erase(name_);
-    }
     shm::Request r;
     r.kind = shm::RequestKind::LeaseRelease;
     shm::assign(r.drive, name_);

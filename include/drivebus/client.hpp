@@ -64,7 +64,10 @@ struct Error {
     std::string message;  // one line, says what to do
     std::uint8_t exception = 0;
     shm::RejectReason reason = shm::RejectReason::None;
-    std::uint64_t lease_holder = 0;
+    // NotPermitted by a lease: who holds it, as that client names itself, and its pid (empty,
+    // 0: this process presented no valid token and nobody else holds it).
+    std::string lease_holder;
+    std::int32_t lease_holder_pid = 0;
 };
 
 struct ConnectOptions {
@@ -145,12 +148,17 @@ public:
     // Calls `callback` with each bus status.
     [[nodiscard]] Subscription on_status(std::function<void(const shm::BusStatus&)> callback) const;
 
-    // A raw request: fills correlation and client, waits for the response.
+    // A raw request: fills correlation, and client, client_name, pid and lease_token where the
+    // caller left them zero (lease_token: the one this Bus holds), waits for the response. A
+    // response that took a lease gives this Bus its token.
     [[nodiscard]] std::expected<shm::Response, Error> request(shm::Request request) const;
     // A write to every drive (address 0): no reply, the bus waits the turnaround.
     [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address, std::span<const std::uint16_t> values) const;
 
-    // This process's client id, as drivebusd sees it (lease holder).
+    // This Bus's client id, as it tells drivebusd (logs, fairness). It grants nothing: what lets
+    // a request act under a control lease is the lease's secret token, which drivebusd gives
+    // this Bus alone when one of its writes takes the lease, and which the library presents
+    // with every request it sends.
     [[nodiscard]] std::uint64_t client_id() const noexcept;
 
     struct Impl;

@@ -330,6 +330,42 @@ TEST(Ipc, ALiveLeaseKeepsTheDriveRunningAndShutsOutOtherWriters) {
     EXPECT_EQ(stack.sim().command("writes 1").find("0xFA01=1000"), std::string::npos);
 }
 
+// Finding 7 of issue 14: the lease is a capability, not a name. A second client that poses as
+// the holder (its client id, its published name and pid, a token of nothing or made of what it
+// knows) can neither write the command nor renew nor release the lease; the holder keeps it,
+// so when the holder then dies, the fallback follows.
+TEST(Ipc, AClientPosingAsTheHolderCannotWriteUnderTheLeaseNorReleaseIt) {
+    StackOptions options;
+    options.drive_extra = "  lease = \"300ms\"\n  fallback = \"stop\"\n";
+    Stack stack(options);
+    Client holder({stack.bus(), "command", "30"});
+    ASSERT_TRUE(holder.printed("holding", 10s)) << holder.output();
+    ASSERT_TRUE(holder.printed("client ", 10s)) << holder.output();
+    const auto id = lines_with(holder.output(), "client ");
+    ASSERT_EQ(id.size(), 1U) << holder.output();
+    ASSERT_EQ(stack.sim_register(1, "FA00"), 0xC400);
+
+    Client impostor({stack.bus(), "impostor", id[0].substr(7)});
+    EXPECT_EQ(impostor.wait(30s), 0) << impostor.output();
+    EXPECT_EQ(lines_with(impostor.output(), "write not permitted").size(), 2U) << impostor.output();
+    EXPECT_EQ(lines_with(impostor.output(), "renew not permitted").size(), 2U) << impostor.output();
+    EXPECT_EQ(lines_with(impostor.output(), "release not permitted").size(), 2U) << impostor.output();
+    // Its write never reached the drive, and the lease neither moved nor ended.
+    EXPECT_EQ(stack.sim_register(1, "FA00"), 0xC400);
+    const auto writes = stack.sim().command("writes 1");
+    EXPECT_EQ(writes.find("0xFA00=51200"), std::string::npos) << writes;
+    EXPECT_EQ(stack.daemon_output().find("took the control lease over"), std::string::npos) << stack.daemon_output();
+    EXPECT_EQ(stack.daemon_output().find("released the control lease"), std::string::npos) << stack.daemon_output();
+
+    // Still the holder's lease: when the holder dies, the drive gets its stop word.
+    holder.kill9();
+    ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == 0xC000; }, 10s))
+        << "FA00 = " << stack.sim_register(1, "FA00") << "\n"
+        << stack.daemon_output();
+    EXPECT_NE(stack.daemon_output().find("control lease of test_client_command"), std::string::npos)
+        << stack.daemon_output();
+}
+
 TEST(Ipc, ClientsNoticeWhenTheDaemonIsGone) {
     Stack stack;
     Client watcher({stack.bus(), "snapshots", "100000"});

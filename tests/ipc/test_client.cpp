@@ -6,14 +6,20 @@
 //   test_client BUS broadcast ADDR V...   one broadcast write (FC06 or FC16) to address 0: "sent"
 //   test_client BUS flood REG             reads REG until killed: "ready" after the first
 //   test_client BUS command HZ            take the pump's lease, run forward at HZ, "holding",
-//                                         then a control loop until killed: each new snapshot,
-//                                         keep_alive()
+//                                         "client ID" (its Bus::client_id()), then a control loop
+//                                         until killed: each new snapshot, keep_alive()
 //   test_client BUS hang HZ               same, the loop on its own thread; once FD00 passes 5 Hz
 //                                         that thread blocks for good after printing
 //                                         "hung T" (T: CLOCK_MONOTONIC ns just before its last
 //                                         keep_alive), while the main thread and iceoryx's stay
 //                                         alive: the main thread watches the snapshots and prints
 //                                         "expired E fallback_ok 0|1" (E: the lease's expired_ns)
+//   test_client BUS impostor ID           waits for a pump snapshot whose lease is held, then poses
+//                                         as its holder: client id ID, the holder's published name
+//                                         and pid, and a token of nothing or made of ID; tries to
+//                                         write FA00 = 0xC800, renew and release: "write|renew|
+//                                         release STATUS" for each token; exits 0 when every one
+//                                         was "not permitted"
 //   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
 //                                         expired and whose fallback was acknowledged:
 //                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
@@ -165,9 +171,50 @@ int main(int argc, char** argv) {
         }
         std::printf("lease %s holder %s fallback_ok %u registers %u\n",
                     std::string(drivebus::shm::to_string(last.lease.state)).c_str(),
-                    last.lease.holder != 0 ? "kept" : "none", static_cast<unsigned>(last.lease.fallback_ok),
+                    drivebus::shm::view(last.lease.holder).empty() ? "none" : "kept", static_cast<unsigned>(last.lease.fallback_ok),
                     static_cast<unsigned>(last.register_count));
         return last.lease.state == drivebus::shm::LeaseState::Expired ? 0 : 1;
+    }
+    if (mode == "impostor" && argc == 4) {
+        const auto id = std::strtoull(argv[3], nullptr, 10);
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+        std::optional<drivebus::shm::LeaseStatus> held;
+        while (!held && std::chrono::steady_clock::now() < until) {
+            auto s = pump->wait_snapshot(std::chrono::milliseconds(200));
+            if (s && s->lease.state == drivebus::shm::LeaseState::Held) {
+                held = s->lease;
+            }
+        }
+        if (!held) {
+            std::fprintf(stderr, "test_client: no held lease seen\n");
+            return 1;
+        }
+        bool refused = true;
+        for (const drivebus::shm::LeaseToken token : {drivebus::shm::LeaseToken{}, drivebus::shm::LeaseToken{id, id}}) {
+            for (const auto kind : {drivebus::shm::RequestKind::Write, drivebus::shm::RequestKind::LeaseRenew,
+                                    drivebus::shm::RequestKind::LeaseRelease}) {
+                drivebus::shm::Request r;
+                r.kind = kind;
+                r.client = id;
+                r.client_name = held->holder;
+                r.pid = held->holder_pid;
+                r.lease_token = token;
+                drivebus::shm::assign(r.drive, "pump");
+                r.start = 0xFA00;
+                r.count = kind == drivebus::shm::RequestKind::Write ? 1 : 0;
+                r.values[0] = 0xC800;
+                auto response = bus->request(r);
+                if (!response) {
+                    return fail(response.error());
+                }
+                const char* what = kind == drivebus::shm::RequestKind::Write        ? "write"
+                                   : kind == drivebus::shm::RequestKind::LeaseRenew ? "renew"
+                                                                                    : "release";
+                std::printf("%s %s\n", what, std::string(drivebus::shm::to_string(response->status)).c_str());
+                refused = refused && response->status == drivebus::shm::Status::NotPermitted;
+            }
+        }
+        return refused ? 0 : 1;
     }
     if ((mode == "command" || mode == "hang") && argc == 4) {
         const drivebus::Altivar altivar(*pump);
@@ -178,6 +225,7 @@ int main(int argc, char** argv) {
             return fail(ok.error());
         }
         std::printf("holding\n");
+        std::printf("client %llu\n", static_cast<unsigned long long>(bus->client_id()));
         if (mode == "command") {
             control_loop(*pump, std::nullopt);
         }
