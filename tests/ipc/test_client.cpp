@@ -53,7 +53,7 @@ std::int64_t monotonic_ns() {
 void control_loop(const drivebus::Drive& pump, std::optional<unsigned> hang_above) {
     std::uint64_t seen = 0;
     for (;;) {
-        auto s = pump.wait_snapshot(std::chrono::milliseconds(100), seen);
+        auto s = pump.wait_snapshot(std::chrono::milliseconds(50), seen);
         if (s) {
             seen = s->sequence;
         }
