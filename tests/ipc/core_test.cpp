@@ -416,6 +416,16 @@ TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
     EXPECT_NE(refused.note->text.find("a holds the control lease"), std::string::npos) << refused.note->text;
     EXPECT_EQ(p.command(kBroadcast, other, false, t0 + 100ms).status, shm::Status::NotPermitted);
     EXPECT_EQ(p.release(0, other).status, shm::Status::NotPermitted);
+    // The holder's very client id, name and pid, without its token: refused all the same.
+    Origin copy = a;
+    copy.correlation = 3;
+    copy.token = {};
+    EXPECT_EQ(p.command(0, copy, false, t0 + 100ms).status, shm::Status::NotPermitted);
+    EXPECT_EQ(p.renew(0, copy, t0 + 100ms).status, shm::Status::NotPermitted);
+    const auto forged_release = p.release(0, copy);
+    EXPECT_EQ(forged_release.status, shm::Status::NotPermitted);
+    EXPECT_FALSE(forged_release.republish);
+    EXPECT_EQ(p.status(0).state, shm::LeaseState::Held);
     // It runs out: the pump's fallback is the profile's ramp stop, written to its command word.
     const auto fallbacks = p.expire(t0 + 600ms);
     ASSERT_EQ(fallbacks.size(), 1U);
