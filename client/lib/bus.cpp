@@ -451,7 +451,8 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     {
         std::lock_guard lock(mutex);
         if (request.lease_token == shm::LeaseToken{}) {
-            request.lease_token = lease_token;
+            const auto it = lease_tokens.find(shm::view(request.drive));
+            request.lease_token = it != lease_tokens.end() ? it->second : latest_token;
         }
         request.correlation = next_correlation++;
         waiting.emplace(request.correlation, std::nullopt);
@@ -476,7 +477,9 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     auto response = waiting.at(request.correlation);
     waiting.erase(request.correlation);
     if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
-        lease_token = response->lease_token;  // this request took a lease: its token from now on
+        // This request took a lease: its token from now on.
+        lease_tokens[std::string(shm::view(request.drive))] = response->lease_token;
+        latest_token = response->lease_token;
     }
     if (!answered || !response) {
         const bool gone = !(status.has_value() && Clock::now() - status_time < options.daemon_silence);

@@ -1,5 +1,5 @@
 // The state behind a Bus: iceoryx ports, the listener thread that takes samples and responses,
-// requests waiting for their response, and the token of the leases this Bus took. Nothing here
+// requests waiting for their response, and the tokens of the leases this Bus took. Nothing here
 // renews a lease on its own: only the application's writes and keep_alive() calls do.
 #pragma once
 
@@ -73,9 +73,11 @@ struct Bus::Impl {
     std::uint64_t next_callback = 1;
     std::unordered_map<std::uint64_t, std::optional<shm::Response>> waiting;  // by correlation
     std::uint64_t next_correlation = 1;
-    // The token of the control leases this Bus took (drivebusd gives one client one token for
-    // all its live leases): presented by every request. All zero: none taken.
-    shm::LeaseToken lease_token{};
+    // The tokens of the control leases this Bus took, by drive name, and the latest one, which
+    // a request to a drive with none presents (drivebusd then gives a lease it takes that same
+    // token). Two writes taking leases at once may get two tokens: each drive keeps its own.
+    std::map<std::string, shm::LeaseToken, std::less<>> lease_tokens;
+    shm::LeaseToken latest_token{};
 
     std::mutex client_mutex;  // the client port is used by callers and the listener
     std::unique_ptr<iox::popo::Subscriber<shm::BusStatus>> status_subscriber;

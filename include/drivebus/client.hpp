@@ -149,8 +149,8 @@ public:
     [[nodiscard]] Subscription on_status(std::function<void(const shm::BusStatus&)> callback) const;
 
     // A raw request: fills correlation, and client, client_name, pid and lease_token where the
-    // caller left them zero (lease_token: the one this Bus holds), waits for the response. A
-    // response that took a lease gives this Bus its token.
+    // caller left them zero (lease_token: the one this Bus holds for that drive), waits for the
+    // response. A response that took a lease gives this Bus its token.
     [[nodiscard]] std::expected<shm::Response, Error> request(shm::Request request) const;
     // A write to every drive (address 0): no reply, the bus waits the turnaround.
     [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address, std::span<const std::uint16_t> values) const;
