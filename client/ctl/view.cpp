@@ -174,16 +174,22 @@ Json state_json(const DriveState& st) {
     return out;
 }
 
+// Who holds it, as that client names itself (libdrivebus: "application[pid]"); drivebusd
+// publishes nothing that would let another client act under the lease.
+std::string holder_text(const shm::LeaseStatus& lease) {
+    return std::string(shm::view(lease.holder));
+}
+
 std::string lease_text(const shm::LeaseStatus& lease, std::int64_t now_ns) {
     std::string text;
     switch (lease.state) {
     case shm::LeaseState::Free: text = "free"; break;
     case shm::LeaseState::Held:
-        text = fmt::format("held by client {} (expires in {})", lease.holder, format_age(lease.expires_ns - now_ns));
+        text = fmt::format("held by {} (expires in {})", holder_text(lease), format_age(lease.expires_ns - now_ns));
         break;
     case shm::LeaseState::Expired:
-        text = fmt::format("expired {} ago (holder client {}), fallback {}", format_age(now_ns - lease.expired_ns),
-                           lease.holder, lease.fallback_ok != 0 ? "applied" : "not acknowledged");
+        text = fmt::format("expired {} ago (holder {}), fallback {}", format_age(now_ns - lease.expired_ns),
+                           holder_text(lease), lease.fallback_ok != 0 ? "applied" : "not acknowledged");
         break;
     }
     return fmt::format("{}; fallback {}, {} {}", text, shm::to_string(lease.fallback), lease.expiries,
@@ -192,7 +198,9 @@ std::string lease_text(const shm::LeaseStatus& lease, std::int64_t now_ns) {
 
 Json lease_json(const shm::LeaseStatus& lease, std::int64_t now_ns) {
     auto out = Json::object();
-    out.set("state", shm::to_string(lease.state)).set("holder", lease.holder);
+    out.set("state", shm::to_string(lease.state));
+    out.set("holder", lease.state == shm::LeaseState::Free ? Json() : Json(shm::view(lease.holder)));
+    out.set("holder_pid", lease.state == shm::LeaseState::Free ? Json() : Json(lease.holder_pid));
     out.set("duration_ms", lease.duration_ms);
     out.set("expires_in_ms", lease.state == shm::LeaseState::Held ? Json((lease.expires_ns - now_ns) / 1'000'000)
                                                                    : Json());

@@ -213,7 +213,6 @@ Bus::Impl::Impl(std::string bus, ConnectOptions connect_options)
 }
 
 Bus::Impl::~Impl() {
-    renewer = {};  // stops and joins
     {
         const std::lock_guard lock(gate->mutex);  // after a callback under way
         gate->impl = nullptr;
@@ -332,7 +331,6 @@ std::expected<void, Error> Bus::Impl::open() {
                 make_error(ErrorKind::NoSuchBus, "bus '" + name + "' takes no requests (its server did not answer)"));
         }
     }
-    renewer = std::jthread([this](std::stop_token stop) { renew_loop(std::move(stop)); });
     return {};
 }
 
@@ -427,7 +425,7 @@ DriveFeed* Bus::Impl::feed(std::string_view which) {
     return nullptr;
 }
 
-std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool wait) {
+std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (!client) {
         std::string group;
         {
@@ -441,14 +439,23 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
     }
     request.version = shm::kPayloadVersion;
     request.size = sizeof(shm::Request);
-    request.client = client_id;
-    shm::assign(request.client_name, client_name);
+    if (request.client == 0) {
+        request.client = client_id;
+    }
+    if (shm::view(request.client_name).empty()) {
+        shm::assign(request.client_name, client_name);
+    }
+    if (request.pid == 0) {
+        request.pid = static_cast<std::int32_t>(::getpid());
+    }
     {
         std::lock_guard lock(mutex);
-        request.correlation = next_correlation++;
-        if (wait) {
-            waiting.emplace(request.correlation, std::nullopt);
+        if (request.lease_token == shm::LeaseToken{}) {
+            const auto it = lease_tokens.find(shm::view(request.drive));
+            request.lease_token = it != lease_tokens.end() ? it->second : latest_token;
         }
+        request.correlation = next_correlation++;
+        waiting.emplace(request.correlation, std::nullopt);
     }
     bool sent = false;
     {
@@ -458,9 +465,6 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
             std::memcpy(loaned.value(), &request, sizeof request);
             sent = !client->send(loaned.value()).has_error();
         }
-    }
-    if (!wait) {
-        return shm::Response{};
     }
     std::unique_lock lock(mutex);
     if (!sent) {
@@ -472,6 +476,11 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
                                            [&] { return waiting.at(request.correlation).has_value(); });
     auto response = waiting.at(request.correlation);
     waiting.erase(request.correlation);
+    if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
+        // This request took a lease: its token from now on.
+        lease_tokens[std::string(shm::view(request.drive))] = response->lease_token;
+        latest_token = response->lease_token;
+    }
     if (!answered || !response) {
         const bool gone = !(status.has_value() && Clock::now() - status_time < options.daemon_silence);
         return std::unexpected(gone ? make_error(ErrorKind::DaemonGone,
@@ -482,38 +491,6 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request, bool w
                                                                          " ms"));
     }
     return *response;
-}
-
-void Bus::Impl::renew_loop(std::stop_token stop) {
-    while (!stop.stop_requested()) {
-        std::vector<std::string> due;
-        auto next = Clock::now() + std::chrono::milliseconds(100);
-        {
-            std::unique_lock lock(mutex);
-            const auto now = Clock::now();
-            for (auto& [drive, lease] : leases) {
-                if (!lease.renewing) {
-                    continue;
-                }
-                const auto at = lease.renewed + lease.length / 4;
-                if (at <= now) {
-                    due.push_back(drive);
-                    lease.renewed = now;
-                } else {
-                    next = std::min(next, at);
-                }
-            }
-        }
-        for (const auto& drive : due) {
-            shm::Request r;
-            r.kind = shm::RequestKind::LeaseRenew;
-            shm::assign(r.drive, drive);
-            (void)call(r, /*wait=*/false);
-        }
-        std::unique_lock lock(mutex);
-        std::condition_variable_any cv;
-        cv.wait_until(lock, stop, next, [] { return false; });
-    }
 }
 
 // ---- Bus ----
@@ -634,7 +611,8 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
     Error e;
     e.exception = r.exception;
     e.reason = r.reason;
-    e.lease_holder = r.lease_holder;
+    e.lease_holder = std::string(shm::view(r.lease_holder));
+    e.lease_holder_pid = r.lease_holder_pid;
     switch (r.status) {
     case shm::Status::Ok: return {};
     case shm::Status::Exception:
@@ -671,8 +649,15 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
         break;
     case shm::Status::NotPermitted:
         e.kind = ErrorKind::NotPermitted;
-        e.message = "another client (id " + std::to_string(r.lease_holder) + ") holds the control lease of " + what +
-                    "; take it over explicitly (drivebusctl write --take-over, WriteOptions::take_over)";
+        if (e.lease_holder.empty()) {
+            e.message = "this process does not hold the control lease of " + what +
+                        " (it ran out, was taken over or was never taken): write the command or reference to "
+                        "take it";
+        } else {
+            e.message = "another client (" + e.lease_holder + ", pid " + std::to_string(e.lease_holder_pid) +
+                        ") holds the control lease of " + what +
+                        "; take it over explicitly (drivebusctl write --take-over, WriteOptions::take_over)";
+        }
         break;
     }
     return std::unexpected(e);

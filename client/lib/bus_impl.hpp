@@ -1,5 +1,6 @@
 // The state behind a Bus: iceoryx ports, the listener thread that takes samples and responses,
-// requests waiting for their response, and the leases this process renews.
+// requests waiting for their response, and the tokens of the leases this Bus took. Nothing here
+// renews a lease on its own: only the application's writes and keep_alive() calls do.
 #pragma once
 
 #include <condition_variable>
@@ -40,12 +41,6 @@ struct CallbackGate {
     Bus::Impl* impl = nullptr;  // null: closed
 };
 
-struct Lease {
-    std::chrono::milliseconds length{0};
-    Clock::time_point renewed{};
-    bool renewing = true;
-};
-
 struct Bus::Impl {
     Impl(std::string bus, ConnectOptions connect_options);
     ~Impl();
@@ -55,14 +50,13 @@ struct Bus::Impl {
     Impl& operator=(Impl&&) = delete;
 
     std::expected<void, Error> open();  // ports, first status, drives
-    std::expected<shm::Response, Error> call(shm::Request request, bool wait = true);
+    std::expected<shm::Response, Error> call(shm::Request request);
     [[nodiscard]] bool alive() const;
     [[nodiscard]] DriveFeed* feed(std::string_view name);
 
     void on_status_sample();
     void on_drive_sample(DriveFeed& feed);
     void on_response();
-    void renew_loop(std::stop_token stop);
 
     std::string name;
     ConnectOptions options;
@@ -79,14 +73,17 @@ struct Bus::Impl {
     std::uint64_t next_callback = 1;
     std::unordered_map<std::uint64_t, std::optional<shm::Response>> waiting;  // by correlation
     std::uint64_t next_correlation = 1;
-    std::map<std::string, Lease> leases;  // by drive name
+    // The tokens of the control leases this Bus took, by drive name, and the latest one, which
+    // a request to a drive with none presents (drivebusd then gives a lease it takes that same
+    // token). Two writes taking leases at once may get two tokens: each drive keeps its own.
+    std::map<std::string, shm::LeaseToken, std::less<>> lease_tokens;
+    shm::LeaseToken latest_token{};
 
     std::mutex client_mutex;  // the client port is used by callers and the listener
     std::unique_ptr<iox::popo::Subscriber<shm::BusStatus>> status_subscriber;
     std::unique_ptr<iox::popo::UntypedClient> client;
     std::unique_ptr<iox::popo::Listener> listener;
     std::unique_ptr<CallbackGate> gate = std::make_unique<CallbackGate>();
-    std::jthread renewer;
 };
 
 // Process-wide: the iceoryx runtime, started once with a name unique to this process.

@@ -132,13 +132,6 @@ std::expected<void, Error> Drive::write(std::uint16_t address, std::span<const s
     if (!response) {
         return std::unexpected(response.error());
     }
-    if (response->lease_ms > 0) {
-        // This write holds the drive's control lease now: keep it alive.
-        std::lock_guard lock(bus_->mutex);
-        auto& lease = bus_->leases[name_];
-        lease.length = std::chrono::milliseconds(response->lease_ms);
-        lease.renewed = Clock::now();
-    }
     return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
@@ -166,13 +159,9 @@ std::expected<Identity, Error> Drive::identify() const {
                     std::string(shm::view(response->identity[2]))};
 }
 
-std::expected<void, Error> Drive::release_control() const {
-    {
-        std::lock_guard lock(bus_->mutex);
-        bus_->leases.erase(name_);
-    }
+std::expected<void, Error> Drive::keep_alive() const {
     shm::Request r;
-    r.kind = shm::RequestKind::LeaseRelease;
+    r.kind = shm::RequestKind::LeaseRenew;
     shm::assign(r.drive, name_);
     auto response = bus_->call(r);
     if (!response) {
@@ -181,9 +170,15 @@ std::expected<void, Error> Drive::release_control() const {
     return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
-void Drive::stop_renewing() const {
-    std::lock_guard lock(bus_->mutex);
-    bus_->leases[name_].renewing = false;
+std::expected<void, Error> Drive::release_control() const {
+    shm::Request r;
+    r.kind = shm::RequestKind::LeaseRelease;
+    shm::assign(r.drive, name_);
+    auto response = bus_->call(r);
+    if (!response) {
+        return std::unexpected(response.error());
+    }
+    return check_response("drive '" + name_ + "'", *response, profile_.get());
 }
 
 }  // namespace drivebus

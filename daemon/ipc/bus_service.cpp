@@ -14,6 +14,7 @@
 #include "iceoryx_posh/popo/subscriber.hpp"
 #include "ipc/intake.hpp"
 #include "ipc/lease_policy.hpp"
+#include "ipc/lease_token.hpp"
 #include "ipc/publisher.hpp"
 #include "ipc/service.hpp"
 #include "log/log.hpp"
@@ -32,7 +33,7 @@ struct BusService::Impl {
     Impl(const config::BusConfig& b, const Layout& layout, bus::BusLoop& l)
         : bus(b),
           loop(l),
-          leases(b),
+          leases(b, random_tokens()),
           publisher(b, layout),
           intake(b, l, leases),
           stop_fd(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {

@@ -33,6 +33,8 @@ public:
     // request and its route are booked and the bus will answer.
     std::optional<shm::Response> accept(const shm::Request& request, Route& route, bool bus_up, rtu::Instant now) {
         Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
+        who.token = request.lease_token;
+        who.pid = request.pid;
         auto admitted = admit(bus_, request);
         if (!admitted) {
             log::info(fmt::format("bus {}: request from {} rejected: {}", bus_.name, who.client_name,
@@ -54,6 +56,7 @@ public:
                 return answer(who, a.status, shm::RejectReason::None, request.start, a.holder);
             }
             who.lease_ms = a.lease_ms;
+            who.granted = a.token;  // whatever the bus then answers, the taker learns its token
         }
         if (!bus_up) {
             return answer(who, shm::Status::BusDown);
@@ -117,18 +120,20 @@ private:
         r.size = sizeof r;
         r.correlation = who.correlation;
         r.lease_ms = who.lease_ms;
+        r.lease_token = who.granted;
         return r;
     }
 
     shm::Response answer(const Origin& who, shm::Status status, shm::RejectReason reason = shm::RejectReason::None,
-                         std::uint16_t address = 0, std::uint64_t holder = 0) {
+                         std::uint16_t address = 0, const Holder& holder = {}) {
         ++served_;
         queue_full_ += status == shm::Status::QueueFull ? 1 : 0;
         auto r = response_shell(who);
         r.status = status;
         r.reason = reason;
         r.register_address = address;
-        r.lease_holder = holder;
+        shm::assign(r.lease_holder, holder.name);  // who holds it, never its token
+        r.lease_holder_pid = holder.pid;
         return r;
     }
 

@@ -1,6 +1,7 @@
 #include "ipc/lease.hpp"
 
 #include <chrono>
+#include <stdexcept>
 
 namespace drivebus::ipc {
 namespace {
@@ -13,9 +14,22 @@ std::uint32_t ms(rtu::Duration d) {
     return static_cast<std::uint32_t>(std::chrono::duration_cast<std::chrono::milliseconds>(d).count());
 }
 
+bool zero(const LeaseToken& t) {
+    return (t[0] | t[1]) == 0;
+}
+
+// Compares every word whatever the first differs in: how long a refusal takes says nothing of
+// how much of a guess was right.
+bool same(const LeaseToken& a, const LeaseToken& b) {
+    return ((a[0] ^ b[0]) | (a[1] ^ b[1])) == 0;
+}
+
 }  // namespace
 
-LeaseTable::LeaseTable(const config::BusConfig& bus) {
+LeaseTable::LeaseTable(const config::BusConfig& bus, TokenSource tokens) : tokens_(std::move(tokens)) {
+    if (!tokens_) {
+        throw std::invalid_argument("bus " + bus.name + ": control leases need a token source");
+    }
     for (const auto& d : bus.drives) {
         Lease l;
         l.duration = std::chrono::duration_cast<rtu::Duration>(d.lease);
@@ -24,45 +38,68 @@ LeaseTable::LeaseTable(const config::BusConfig& bus) {
     }
 }
 
-LeaseDecision LeaseTable::acquire(std::size_t drive, std::uint64_t client, std::string_view name, bool take_over,
+bool LeaseTable::held_under(const Lease& l, const LeaseToken& token) {
+    return l.state == shm::LeaseState::Held && !zero(token) && same(l.token, token);
+}
+
+LeaseToken LeaseTable::token_for(const LeaseToken& presented) {
+    // A token only its holder knows, still held (this lease run out but not yet expired, or
+    // another drive's): the same client, so the same token, and its other leases stay valid.
+    for (const auto& l : leases_) {
+        if (held_under(l, presented)) {
+            return presented;
+        }
+    }
+    for (;;) {
+        const auto fresh = tokens_();
+        if (!zero(fresh)) {
+            return fresh;
+        }
+    }
+}
+
+LeaseDecision LeaseTable::acquire(std::size_t drive, const LeaseToken& token, const Holder& who, bool take_over,
                                   rtu::Instant now) {
     auto& l = leases_.at(drive);
     const bool live = l.state == shm::LeaseState::Held && l.expires > now;
-    if (live && l.holder != client && !take_over) {
-        return {false, false, false, l.holder, l.holder_name, 0};
+    const bool renewal = live && held_under(l, token);
+    if (live && !renewal && !take_over) {
+        return {false, false, false, l.holder, {}, 0};
     }
-    const bool moved = live && l.holder != client;
-    const bool renewal = live && l.holder == client;
-    l.holder = client;
-    l.holder_name = std::string(name);
+    l.expires = now + l.duration;
+    if (renewal) {
+        return {true, false, false, l.holder, {}, ms(l.duration)};
+    }
+    // Taken, or taken over: the token moves, so the former holder's next request is refused.
+    l.token = token_for(token);
+    l.holder = who;
     l.state = shm::LeaseState::Held;
-    l.expires = now + l.duration;
-    return {true, moved, !renewal, client, l.holder_name, ms(l.duration)};
+    return {true, live, true, l.holder, l.token, ms(l.duration)};
 }
 
-LeaseDecision LeaseTable::renew(std::size_t drive, std::uint64_t client, rtu::Instant now) {
+LeaseDecision LeaseTable::renew(std::size_t drive, const LeaseToken& token, rtu::Instant now) {
     auto& l = leases_.at(drive);
-    if (l.state != shm::LeaseState::Held || l.holder != client || l.expires <= now) {
-        return {false, false, false, l.state == shm::LeaseState::Held ? l.holder : 0, l.holder_name, 0};
+    if (!held_under(l, token) || l.expires <= now) {
+        return {false, false, false, l.state == shm::LeaseState::Held ? l.holder : Holder{}, {}, 0};
     }
     l.expires = now + l.duration;
-    return {true, false, false, client, l.holder_name, ms(l.duration)};
+    return {true, false, false, l.holder, {}, ms(l.duration)};
 }
 
-bool LeaseTable::release(std::size_t drive, std::uint64_t client) {
+bool LeaseTable::release(std::size_t drive, const LeaseToken& token) {
     auto& l = leases_.at(drive);
-    if (l.state != shm::LeaseState::Held || l.holder != client) {
+    if (!held_under(l, token)) {
         return false;
     }
     l.state = shm::LeaseState::Free;
-    l.holder = 0;
-    l.holder_name.clear();
+    l.token = {};
+    l.holder = {};
     return true;
 }
 
-std::optional<std::uint64_t> LeaseTable::other_holder(std::uint64_t client) const {
+std::optional<Holder> LeaseTable::other_holder(const LeaseToken& token) const {
     for (const auto& l : leases_) {
-        if (l.state == shm::LeaseState::Held && l.holder != client) {
+        if (l.state == shm::LeaseState::Held && !held_under(l, token)) {
             return l.holder;
         }
     }
@@ -75,11 +112,12 @@ std::vector<Expiry> LeaseTable::expire(rtu::Instant now) {
         auto& l = leases_[i];
         if (l.state == shm::LeaseState::Held && l.expires <= now) {
             l.state = shm::LeaseState::Expired;
+            l.token = {};  // nothing renews or releases it any more
             l.expired = now;
             l.fallback_ok = false;
             ++l.expiries;
             ++expiries_;
-            out.push_back({i, l.holder, l.holder_name, l.fallback});
+            out.push_back({i, l.holder, l.fallback});
         }
     }
     return out;
@@ -102,8 +140,12 @@ void LeaseTable::fallback_result(std::size_t drive, bool ok) {
 shm::LeaseStatus LeaseTable::status(std::size_t drive) const {
     const auto& l = leases_.at(drive);
     shm::LeaseStatus s;
-    // An expired lease still names its last holder: whose application stopped renewing.
-    s.holder = l.state == shm::LeaseState::Free ? 0 : l.holder;
+    // An expired lease still names its last holder: whose application stopped renewing. Only
+    // the name and pid: the token is the holder's alone.
+    if (l.state != shm::LeaseState::Free) {
+        shm::assign(s.holder, l.holder.name);
+        s.holder_pid = l.holder.pid;
+    }
     s.expires_ns = l.state == shm::LeaseState::Held ? ns(l.expires) : 0;
     s.duration_ms = ms(l.duration);
     s.state = l.state;

@@ -10,7 +10,8 @@ void write_note(const std::optional<Note>& note) {
     }
 }
 
-LeasePolicy::LeasePolicy(const config::BusConfig& bus) : bus_(bus), table_(bus) {}
+LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
+    : bus_(bus), table_(bus, std::move(tokens)) {}
 
 std::string LeasePolicy::where(std::size_t drive) const {
     return fmt::format("bus {} drive {}", bus_.name, bus_.drives.at(drive).name);
@@ -19,18 +20,18 @@ std::string LeasePolicy::where(std::size_t drive) const {
 LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now) {
     LeaseAction a;
     if (drive == kBroadcast) {
-        if (const auto other = table_.other_holder(who.client)) {
+        if (const auto other = table_.other_holder(who.token)) {
             a.status = shm::Status::NotPermitted;
             a.holder = *other;
         }
         return a;
     }
-    const auto d = table_.acquire(drive, who.client, who.client_name, take_over, now);
+    const auto d = table_.acquire(drive, who.token, Holder{who.client_name, who.pid}, take_over, now);
     if (!d.allowed) {
         a.status = shm::Status::NotPermitted;
         a.holder = d.holder;
         a.note = Note{log::Level::Info, fmt::format("{}: {} may not command it: {} holds the control lease",
-                                                    where(drive), who.client_name, d.holder_name)};
+                                                    where(drive), who.client_name, d.holder.name)};
         return a;
     }
     if (d.taken_over) {
@@ -38,13 +39,14 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
                                                       who.client_name)};
     }
     a.lease_ms = d.lease_ms;
+    a.token = d.token;
     // A renewal only moves the expiry: subscribers hear of new holders, not of each write.
     a.republish = d.changed;
     return a;
 }
 
 LeaseAction LeasePolicy::renew(std::size_t drive, const Origin& who, rtu::Instant now) {
-    const auto d = table_.renew(drive, who.client, now);
+    const auto d = table_.renew(drive, who.token, now);
     LeaseAction a;
     a.status = d.allowed ? shm::Status::Ok : shm::Status::NotPermitted;
     a.holder = d.holder;
@@ -54,8 +56,10 @@ LeaseAction LeasePolicy::renew(std::size_t drive, const Origin& who, rtu::Instan
 
 LeaseAction LeasePolicy::release(std::size_t drive, const Origin& who) {
     LeaseAction a;
-    if (!table_.release(drive, who.client)) {
+    if (!table_.release(drive, who.token)) {
         a.status = shm::Status::NotPermitted;
+        a.note = Note{log::Level::Info, fmt::format("{}: {} may not release the control lease: it does not hold it",
+                                                    where(drive), who.client_name)};
         return a;
     }
     a.republish = true;
@@ -70,7 +74,7 @@ std::vector<FallbackAction> LeasePolicy::expire(rtu::Instant now) {
         FallbackAction f;
         f.drive = e.drive;
         f.note = Note{log::Level::Warning, fmt::format("{}: the control lease of {} ran out; fallback: {}",
-                                                       where(e.drive), e.holder_name, config::to_string(e.fallback))};
+                                                       where(e.drive), e.holder.name, config::to_string(e.fallback))};
         if (e.fallback != config::LeaseFallback::Hold && d.profile && d.profile->control) {
             const auto& control = *d.profile->control;
             const auto* command = d.profile->find(control.command);

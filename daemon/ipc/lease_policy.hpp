@@ -27,7 +27,8 @@ void write_note(const std::optional<Note>& note);
 
 struct LeaseAction {
     shm::Status status = shm::Status::Ok;  // Ok: allowed (a write goes on; a renewal is answered Ok)
-    std::uint64_t holder = 0;              // NotPermitted: who holds it
+    Holder holder;                         // NotPermitted: who holds it (name and pid, never the token)
+    LeaseToken token{};                    // taken: the token for the taker's answer alone
     std::uint32_t lease_ms = 0;            // the length taken or renewed
     bool republish = false;                // the drive's lease snapshot changed
     std::optional<Note> note;
@@ -41,10 +42,11 @@ struct FallbackAction {
 
 class LeasePolicy {
 public:
-    explicit LeasePolicy(const config::BusConfig& bus);
+    LeasePolicy(const config::BusConfig& bus, TokenSource tokens);
 
     // A write that touches a command or reference register of `drive` (kBroadcast: a
-    // broadcast, refused while another client holds any drive's lease).
+    // broadcast, refused while any drive's lease is held under another token than the one
+    // `who` presents). `who` presents its token; its name and pid are only for display.
     LeaseAction command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now);
     LeaseAction renew(std::size_t drive, const Origin& who, rtu::Instant now);
     LeaseAction release(std::size_t drive, const Origin& who);

@@ -27,6 +27,9 @@ struct Origin {
     std::size_t drive = kBroadcast;
     std::uint32_t lease_ms = 0;
     bool fallback = false;  // drivebusd's own lease fallback, not a client's
+    shm::LeaseToken token{};    // the lease token the request presents
+    std::int32_t pid = 0;       // the client's, as it says
+    shm::LeaseToken granted{};  // the request took a lease: its token, for this answer alone
 };
 
 template <typename Route>

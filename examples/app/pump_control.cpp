@@ -3,7 +3,8 @@
 //
 //   pump_control [--bus NAME] [--drive NAME] [--hz 30] [--seconds 3]
 //
-// While it runs it holds the drive's control lease (the library renews it); if it is killed,
+// While it runs it holds the drive's control lease, and its control loop renews it with
+// keep_alive() on every pass; if the loop hangs or the process is killed, nothing renews it and
 // drivebusd applies the drive's fallback (by default a ramp stop) when the lease runs out.
 #include <cstdio>
 #include <cstdlib>
@@ -73,9 +74,18 @@ int main(int argc, char** argv) {
     const auto until = drivebus::Clock::now() + std::chrono::duration<double>(args.seconds);
     std::uint64_t seen = 0;
     while (drivebus::Clock::now() < until) {
-        auto snapshot = drive->wait_snapshot(std::chrono::milliseconds(500), seen);
-        if (!snapshot) {
+        // One pass of the control loop: at least a few per lease time (1 s by default), whether or
+        // not a new snapshot came.
+        auto snapshot = drive->wait_snapshot(std::chrono::milliseconds(100), seen);
+        if (!snapshot && snapshot.error().kind != drivebus::ErrorKind::NoReply) {
             return fail(snapshot.error());
+        }
+        // This loop is alive: say so. Only this renews the lease between writes.
+        if (auto ok = drive->keep_alive(); !ok) {
+            return fail(ok.error());
+        }
+        if (!snapshot) {
+            continue;
         }
         seen = snapshot->sequence;
         const auto state = drivebus::decode_state(*drive->profile(), *snapshot);

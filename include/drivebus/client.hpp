@@ -4,7 +4,11 @@
 //   auto pump = bus->drive("pump");                       // by name, or "3" by address
 //   auto speed = pump->read("FD00");                      // one request on the bus
 //   pump->write("FA01", {5000});                          // takes the drive's control lease
-//   auto snap = pump->wait_snapshot(std::chrono::seconds(1));  // the latest polled values
+//   for (;;) {                                            // the application's control loop
+//       auto snap = pump->wait_snapshot(std::chrono::milliseconds(100));  // the latest polled values
+//       ...
+//       if (!pump->keep_alive()) { ... }                  // the loop is alive: renew the lease
+//   }
 //
 // Everything returns std::expected: nothing here throws. A Bus is safe to use from several
 // threads; callbacks run on the library's own thread and must not block.
@@ -60,7 +64,10 @@ struct Error {
     std::string message;  // one line, says what to do
     std::uint8_t exception = 0;
     shm::RejectReason reason = shm::RejectReason::None;
-    std::uint64_t lease_holder = 0;
+    // NotPermitted by a lease: who holds it, as that client names itself, and its pid (empty,
+    // 0: this process presented no valid token and nobody else holds it).
+    std::string lease_holder;
+    std::int32_t lease_holder_pid = 0;
 };
 
 struct ConnectOptions {
@@ -141,12 +148,17 @@ public:
     // Calls `callback` with each bus status.
     [[nodiscard]] Subscription on_status(std::function<void(const shm::BusStatus&)> callback) const;
 
-    // A raw request: fills correlation and client, waits for the response.
+    // A raw request: fills correlation, and client, client_name, pid and lease_token where the
+    // caller left them zero (lease_token: the one this Bus holds for that drive), waits for the
+    // response. A response that took a lease gives this Bus its token.
     [[nodiscard]] std::expected<shm::Response, Error> request(shm::Request request) const;
     // A write to every drive (address 0): no reply, the bus waits the turnaround.
     [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address, std::span<const std::uint16_t> values) const;
 
-    // This process's client id, as drivebusd sees it (lease holder).
+    // This Bus's client id, as it tells drivebusd (logs, fairness). It grants nothing: what lets
+    // a request act under a control lease is the lease's secret token, which drivebusd gives
+    // this Bus alone when one of its writes takes the lease, and which the library presents
+    // with every request it sends.
     [[nodiscard]] std::uint64_t client_id() const noexcept;
 
     struct Impl;
@@ -185,10 +197,20 @@ public:
                                                    WriteOptions options = {}) const;
     [[nodiscard]] std::expected<Identity, Error> identify() const;
 
-    // Gives up the control lease without the fallback (the library renews it otherwise).
+    // The control lease lives only as long as the application shows it is alive: each write to
+    // the drive's command or reference renews it, and so does keep_alive(). Nothing else does:
+    // no thread of the library renews it, so a control loop that hangs or deadlocks stops
+    // renewing, and drivebusd applies the drive's fallback once the lease time (the drive's
+    // `lease`, 1 s by default) has passed since the last renewal. Call keep_alive() from the
+    // control loop itself, at least a few times per lease time (a quarter of it leaves room
+    // for a late iteration), never from a timer thread of its own.
+    //
+    // Renews this process's lease on the drive (the LeaseRenew request). NotPermitted when it
+    // holds none: it ran out (the fallback was applied), another client took it over, or no
+    // write took it; a write to the command or reference takes a fresh one.
+    [[nodiscard]] std::expected<void, Error> keep_alive() const;
+    // Gives up the control lease without the fallback.
     [[nodiscard]] std::expected<void, Error> release_control() const;
-    // Stops renewing the lease (tests: what a hung application looks like).
-    void stop_renewing() const;
 
 private:
     Drive(std::shared_ptr<Bus::Impl> bus, std::string name, std::uint8_t address, std::shared_ptr<const Profile> profile);

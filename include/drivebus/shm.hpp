@@ -18,7 +18,7 @@
 
 namespace drivebus::shm {
 
-inline constexpr std::uint32_t kPayloadVersion = 2;
+inline constexpr std::uint32_t kPayloadVersion = 3;
 inline constexpr std::string_view kService = "drivebus";
 inline constexpr std::string_view kStatusEvent = "status";
 inline constexpr std::string_view kRequestEvent = "requests";
@@ -45,6 +45,11 @@ void assign(std::array<char, N>& text, std::string_view from) noexcept {
     text.fill('\0');
     std::memcpy(text.data(), from.data(), from.size() < N ? from.size() : N - 1);
 }
+
+// The secret a client gets when it takes a drive's control lease: 128 random bits, handed in
+// the Response to its own request alone, and presented by its later requests (renew, write
+// under the lease, release). All zero: none.
+using LeaseToken = std::array<std::uint64_t, 2>;
 
 enum class DriveHealth : std::uint8_t {
     Unknown = 0,  // not polled yet
@@ -80,7 +85,11 @@ struct DriveCounters {
 };
 
 struct LeaseStatus {
-    std::uint64_t holder = 0;  // client id (Held: the holder; Expired: the last one); 0: none
+    // Who holds it (Held: the holder; Expired: the last one; empty when free): the client's own
+    // name and pid, for people to read. Never the token: knowing who holds it grants nothing.
+    std::array<char, kNameSize> holder{};
+    std::int32_t holder_pid = 0;
+    std::uint32_t reserved_pid = 0;
     std::int64_t expires_ns = 0;  // CLOCK_MONOTONIC; 0 when free
     std::uint32_t duration_ms = 0;
     LeaseState state = LeaseState::Free;
@@ -203,13 +212,18 @@ struct Request {
     std::uint32_t version = kPayloadVersion;
     std::uint32_t size = 0;
     std::uint64_t correlation = 0;  // echoed in the response
-    std::uint64_t client = 0;       // the client's id (per process, random)
+    std::uint64_t client = 0;       // the client's id (per process, random): grants nothing
+    // The token of the control lease the client holds (Response::lease_token), or zero: what
+    // lets a write under the lease, a LeaseRenew or a LeaseRelease through.
+    LeaseToken lease_token{};
     RequestKind kind = RequestKind::Read;
     std::uint8_t flags = 0;
     std::uint8_t address = 0;    // the drive, when `drive` is empty
     std::uint8_t function = 0;   // Write/Broadcast: 6 or 16; 0 lets drivebusd choose
     std::uint16_t start = 0;     // first register
     std::uint16_t count = 0;     // words to read, or words in `values`
+    std::int32_t pid = 0;        // the client's process, as it says: shown as the lease's holder
+    std::uint32_t reserved = 0;
     std::array<char, kNameSize> drive{};
     std::array<char, kNameSize> client_name{};  // for logs: "pump-control[1234]"
     std::array<std::uint16_t, kMaxWriteWords> values{};
@@ -254,7 +268,13 @@ struct Response {
     std::uint32_t lease_ms = 0;          // this request took or renewed a lease of this length
     std::uint32_t late_us = 0;           // Late: how long after the request the latest reply came
     std::int64_t reply_ns = 0;           // CLOCK_MONOTONIC end of the reply
-    std::uint64_t lease_holder = 0;      // NotPermitted: who holds the lease
+    // This request took the lease (lease_ms > 0 and not zero): the token to present from now
+    // on. Only in the answer to the request that took it.
+    LeaseToken lease_token{};
+    // NotPermitted: who holds the lease (name and pid as that client gave them).
+    std::array<char, kNameSize> lease_holder{};
+    std::int32_t lease_holder_pid = 0;
+    std::uint32_t reserved_holder = 0;
     std::array<std::uint16_t, kMaxReadWords> values{};
     // Identify: vendor name, product code, revision.
     std::array<std::array<char, kIdentObjectSize>, 3> identity{};

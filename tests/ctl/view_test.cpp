@@ -34,7 +34,8 @@ shm::DriveSnapshot pump_snapshot() {
     }
     s.registers[s.register_count - 1].valid = 0;  // FD01's last read failed
     s.lease.state = shm::LeaseState::Held;
-    s.lease.holder = 77;
+    shm::assign(s.lease.holder, "pump-control[77]");
+    s.lease.holder_pid = 77;
     s.lease.expires_ns = kNow + 800'000'000;
     s.lease.fallback = shm::Fallback::Stop;
     return s;
@@ -86,7 +87,7 @@ TEST(CtlView, DriveStatusShowsStateLeaseAndEveryRegister) {
                         "Overcurrent alarm, Undercurrent alarm"),
               std::string::npos)
         << text;
-    EXPECT_NE(text.find("held by client 77 (expires in 800 ms); fallback stop, 0 expiries"), std::string::npos)
+    EXPECT_NE(text.find("held by pump-control[77] (expires in 800 ms); fallback stop, 0 expiries"), std::string::npos)
         << text;
     EXPECT_NE(text.find("FD00  0xFD00   2950   29.50 Hz  yes    35 ms  Output frequency"), std::string::npos)
         << text;

@@ -60,7 +60,8 @@ protected:
         config.drives.push_back(drive("pump", 1, atv21));
         loop = std::make_unique<bus::BusLoop>(config, master::EngineCallbacks{});
         ASSERT_TRUE(loop->start().has_value());
-        leases = std::make_unique<ipc::LeasePolicy>(config);
+        leases = std::make_unique<ipc::LeasePolicy>(
+            config, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 1}; });
         intake = std::make_unique<ipc::IntakeCore<Route>>(
             config, *leases, [this](const master::ClientRequest& r) { return loop->submit(r).has_value(); });
     }

@@ -277,66 +277,155 @@ TEST(Admission, LeaseOperationsStayOffTheWire) {
 
 // ---- leases ----
 
+// Tokens as a source would give them, but predictable: 1, 2, 3... in the first word.
+TokenSource counting_tokens() {
+    return [n = std::uint64_t{0}]() mutable { return LeaseToken{++n, 0xA5A5A5A5A5A5A5A5ULL}; };
+}
+
+Holder holder(std::string name, std::int32_t pid = 0) {
+    return Holder{std::move(name), pid};
+}
+
 TEST(Lease, OneHolderAtATime) {
     const auto b = bus();
-    LeaseTable t(b);
+    LeaseTable t(b, counting_tokens());
     const rtu::Instant t0{};
-    EXPECT_TRUE(t.acquire(0, 11, "a", false, t0).allowed);
-    const auto other = t.acquire(0, 22, "b", false, t0 + 100ms);
+    const auto a = t.acquire(0, {}, holder("a", 11), false, t0);
+    ASSERT_TRUE(a.allowed);
+    EXPECT_NE(a.token, LeaseToken{}) << "taking it hands out a token";
+    const auto other = t.acquire(0, {}, holder("b", 22), false, t0 + 100ms);
     EXPECT_FALSE(other.allowed);
-    EXPECT_EQ(other.holder, 11U);
-    EXPECT_EQ(other.holder_name, "a");
+    EXPECT_EQ(other.holder.name, "a");
+    EXPECT_EQ(other.holder.pid, 11);
+    EXPECT_EQ(other.token, LeaseToken{}) << "a refusal never carries the token";
     // Other drives are free.
-    EXPECT_TRUE(t.acquire(1, 22, "b", false, t0).allowed);
-    // Taking it over is explicit.
-    const auto taken = t.acquire(0, 22, "b", true, t0 + 100ms);
+    EXPECT_TRUE(t.acquire(1, {}, holder("b", 22), false, t0).allowed);
+    // Taking it over is explicit, and moves the token: the former holder's is worth nothing.
+    const auto taken = t.acquire(0, {}, holder("b", 22), true, t0 + 100ms);
     EXPECT_TRUE(taken.allowed);
     EXPECT_TRUE(taken.taken_over);
-    EXPECT_FALSE(t.renew(0, 11, t0 + 150ms).allowed);
+    EXPECT_NE(taken.token, a.token);
+    EXPECT_FALSE(t.renew(0, a.token, t0 + 150ms).allowed);
+    EXPECT_TRUE(t.renew(0, taken.token, t0 + 150ms).allowed);
+}
+
+// Finding 7 of issue 14: the lease is a capability, not a name. Whatever is published of the
+// holder (its name and pid), copied into a request, and any token but the holder's, are
+// refused: no write under the lease, no renewal, no release.
+TEST(Lease, ACopiedIdOrAWrongTokenGetsNotPermittedAndCannotRelease) {
+    const auto b = bus();
+    LeaseTable t(b, counting_tokens());
+    const rtu::Instant t0{};
+    const auto mine = t.acquire(0, {}, holder("pump-control[11]", 11), false, t0);
+    ASSERT_TRUE(mine.allowed);
+    // What a snapshot publishes: who holds it, never the token.
+    const auto published = t.status(0);
+    EXPECT_EQ(shm::view(published.holder), "pump-control[11]");
+    EXPECT_EQ(published.holder_pid, 11);
+    const Holder copied{std::string(shm::view(published.holder)), published.holder_pid};
+    LeaseToken wrong = mine.token;
+    wrong[1] ^= 1;  // one bit off
+    const LeaseToken guessed{mine.token[0] + 1, mine.token[1]};  // the next of a counter
+    for (const auto& token : {LeaseToken{}, wrong, guessed}) {
+        const auto write = t.acquire(0, token, copied, false, t0 + 10ms);
+        EXPECT_FALSE(write.allowed);
+        EXPECT_EQ(write.token, LeaseToken{});
+        EXPECT_FALSE(t.renew(0, token, t0 + 10ms).allowed);
+        EXPECT_FALSE(t.release(0, token));
+        EXPECT_TRUE(t.other_holder(token).has_value()) << "nor may it broadcast to the command";
+    }
+    // The holder is untouched: it still holds, renews, and its lease still runs out into the
+    // fallback if it stops.
+    EXPECT_EQ(t.status(0).state, shm::LeaseState::Held);
+    EXPECT_TRUE(t.acquire(0, mine.token, holder("pump-control[11]", 11), false, t0 + 20ms).allowed);
+    EXPECT_TRUE(t.renew(0, mine.token, t0 + 30ms).allowed);
+    const auto gone = t.expire(t0 + 30ms + 500ms);
+    ASSERT_EQ(gone.size(), 1U);
+    EXPECT_EQ(gone[0].holder.name, "pump-control[11]");
+    // Once it has run out, the old token renews nothing.
+    EXPECT_FALSE(t.renew(0, mine.token, t0 + 600ms).allowed);
+    EXPECT_FALSE(t.release(0, mine.token));
+}
+
+// One client, one token: a lease taken while presenting the token of a lease the client holds
+// on another drive gets that same token, so the client's requests can carry one token.
+TEST(Lease, AClientsLeasesShareItsToken) {
+    const auto b = bus();
+    LeaseTable t(b, counting_tokens());
+    const rtu::Instant t0{};
+    const auto pump = t.acquire(0, {}, holder("a", 11), false, t0);
+    const auto fan = t.acquire(1, pump.token, holder("a", 11), false, t0);
+    ASSERT_TRUE(fan.allowed);
+    EXPECT_EQ(fan.token, pump.token);
+    EXPECT_FALSE(t.other_holder(pump.token).has_value()) << "its broadcast touches only its own leases";
+    // A token presented that holds nothing (here: made up) does not become a lease's token.
+    LeaseTable u(b, counting_tokens());
+    const LeaseToken made_up{77, 77};
+    const auto taken = u.acquire(0, made_up, holder("c", 33), false, t0);
+    ASSERT_TRUE(taken.allowed);
+    EXPECT_NE(taken.token, made_up);
 }
 
 TEST(Lease, RenewalKeepsItAndExpiryHappensOnceAtTheDeadline) {
     const auto b = bus();
-    LeaseTable t(b);
+    LeaseTable t(b, counting_tokens());
     const rtu::Instant t0{};
-    const auto d = t.acquire(0, 11, "a", false, t0);
+    const auto d = t.acquire(0, {}, holder("a", 11), false, t0);
     EXPECT_EQ(d.lease_ms, 500U);
     EXPECT_EQ(t.next_deadline(), t0 + 500ms);
-    EXPECT_TRUE(t.renew(0, 11, t0 + 400ms).allowed);
+    EXPECT_TRUE(t.renew(0, d.token, t0 + 400ms).allowed);
     EXPECT_TRUE(t.expire(t0 + 899ms).empty());
     const auto gone = t.expire(t0 + 900ms);
     ASSERT_EQ(gone.size(), 1U);
     EXPECT_EQ(gone[0].drive, 0U);
-    EXPECT_EQ(gone[0].holder, 11U);
+    EXPECT_EQ(gone[0].holder.name, "a");
     EXPECT_EQ(gone[0].fallback, config::LeaseFallback::Stop);
     EXPECT_TRUE(t.expire(t0 + 2s).empty());
     EXPECT_EQ(t.status(0).state, shm::LeaseState::Expired);
     EXPECT_EQ(t.status(0).expiries, 1U);
     EXPECT_FALSE(t.next_deadline().has_value());
     // Too late to renew; a new write takes a fresh lease.
-    EXPECT_FALSE(t.renew(0, 11, t0 + 2s).allowed);
-    EXPECT_TRUE(t.acquire(0, 22, "b", false, t0 + 2s).allowed);
-    EXPECT_FALSE(t.acquire(0, 22, "b", false, t0 + 2s).taken_over);
+    EXPECT_FALSE(t.renew(0, d.token, t0 + 2s).allowed);
+    const auto fresh = t.acquire(0, {}, holder("b", 22), false, t0 + 2s);
+    EXPECT_TRUE(fresh.allowed);
+    EXPECT_FALSE(fresh.taken_over);
 }
 
 // The lease policy decides and returns actions; the caller answers, logs, publishes, writes.
 TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
     const auto b = bus();
-    LeasePolicy p(b);
+    LeasePolicy p(b, counting_tokens());
     const rtu::Instant t0{};
-    const Origin a{1, 11, "a", shm::RequestKind::Write, 0};
+    Origin a{1, 11, "a", shm::RequestKind::Write, 0};
+    a.pid = 11;
     const Origin other{2, 22, "b", shm::RequestKind::Write, 0};
     const auto taken = p.command(0, a, false, t0);
     EXPECT_EQ(taken.status, shm::Status::Ok);
     EXPECT_TRUE(taken.republish) << "a new holder is published";
     EXPECT_EQ(taken.lease_ms, 500U);
-    EXPECT_FALSE(p.command(0, a, false, t0 + 100ms).republish) << "a renewal is not";
+    EXPECT_NE(taken.token, LeaseToken{});
+    a.token = taken.token;
+    const auto renewed = p.command(0, a, false, t0 + 100ms);
+    EXPECT_FALSE(renewed.republish) << "a renewal is not";
+    EXPECT_EQ(renewed.token, LeaseToken{}) << "nor is the token handed out again";
     const auto refused = p.command(0, other, false, t0 + 100ms);
     EXPECT_EQ(refused.status, shm::Status::NotPermitted);
-    EXPECT_EQ(refused.holder, 11U);
+    EXPECT_EQ(refused.holder.name, "a");
+    EXPECT_EQ(refused.holder.pid, 11);
     ASSERT_TRUE(refused.note.has_value());
     EXPECT_NE(refused.note->text.find("a holds the control lease"), std::string::npos) << refused.note->text;
     EXPECT_EQ(p.command(kBroadcast, other, false, t0 + 100ms).status, shm::Status::NotPermitted);
+    EXPECT_EQ(p.release(0, other).status, shm::Status::NotPermitted);
+    // The holder's very client id, name and pid, without its token: refused all the same.
+    Origin copy = a;
+    copy.correlation = 3;
+    copy.token = {};
+    EXPECT_EQ(p.command(0, copy, false, t0 + 100ms).status, shm::Status::NotPermitted);
+    EXPECT_EQ(p.renew(0, copy, t0 + 100ms).status, shm::Status::NotPermitted);
+    const auto forged_release = p.release(0, copy);
+    EXPECT_EQ(forged_release.status, shm::Status::NotPermitted);
+    EXPECT_FALSE(forged_release.republish);
+    EXPECT_EQ(p.status(0).state, shm::LeaseState::Held);
     // It runs out: the pump's fallback is the profile's ramp stop, written to its command word.
     const auto fallbacks = p.expire(t0 + 600ms);
     ASSERT_EQ(fallbacks.size(), 1U);
@@ -346,7 +435,8 @@ TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
     EXPECT_EQ(fallbacks[0].write->pdu, rtu::Request(rtu::WriteSingleRegister{0xFA00, 0xC000}));
     // The expired lease still names its last holder.
     EXPECT_EQ(p.status(0).state, shm::LeaseState::Expired);
-    EXPECT_EQ(p.status(0).holder, 11U);
+    EXPECT_EQ(shm::view(p.status(0).holder), "a");
+    EXPECT_EQ(p.status(0).holder_pid, 11);
     const auto failed = p.fallback_done(0, master::Outcome::Timeout, false);
     ASSERT_TRUE(failed.note.has_value());
     EXPECT_EQ(failed.note->level, log::Level::Error);
@@ -379,22 +469,23 @@ TEST(PendingBook, BooksUpToTheLimitAndEveryEntryLeavesOnce) {
 
 TEST(Lease, ReleaseMeansNoFallback) {
     const auto b = bus();
-    LeaseTable t(b);
+    LeaseTable t(b, counting_tokens());
     const rtu::Instant t0{};
-    (void)t.acquire(0, 11, "a", false, t0);
-    EXPECT_FALSE(t.release(0, 22));
-    EXPECT_TRUE(t.release(0, 11));
+    const auto a = t.acquire(0, {}, holder("a", 11), false, t0);
+    EXPECT_FALSE(t.release(0, {}));
+    EXPECT_TRUE(t.release(0, a.token));
     EXPECT_TRUE(t.expire(t0 + 10s).empty());
     EXPECT_EQ(t.status(0).state, shm::LeaseState::Free);
+    EXPECT_TRUE(shm::view(t.status(0).holder).empty());
 }
 
 TEST(Lease, BroadcastsCheckEveryDrive) {
     const auto b = bus();
-    LeaseTable t(b);
-    EXPECT_FALSE(t.other_holder(11).has_value());
-    (void)t.acquire(1, 22, "b", false, rtu::Instant{});
-    EXPECT_EQ(t.other_holder(11), 22U);
-    EXPECT_FALSE(t.other_holder(22).has_value());
+    LeaseTable t(b, counting_tokens());
+    EXPECT_FALSE(t.other_holder({}).has_value());
+    const auto fan = t.acquire(1, {}, holder("b", 22), false, rtu::Instant{});
+    EXPECT_EQ(t.other_holder({})->name, "b");
+    EXPECT_FALSE(t.other_holder(fan.token).has_value());
 }
 
 // ---- payloads ----

@@ -20,6 +20,7 @@ namespace drivebus::test {
 namespace {
 
 using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
 
 // A test_client process (or `program`) whose stdout is read as it runs.
 class Client {
@@ -227,14 +228,10 @@ TEST(Ipc, AFloodOfClientsGetsOneAnswerPerRequest) {
 
 // The drive's reference is 30 Hz (3000 in 0.01 Hz) and it runs; once the lease runs out,
 // drivebusd's fallback (ramp stop) brings the simulated FD00 down to 0.
-void expect_fallback_stops(Stack& stack, Client& holder, bool kill) {
+void expect_fallback_stops(Stack& stack, Client& holder) {
     ASSERT_TRUE(holder.printed("holding", 10s)) << holder.output();
     ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FD00") > 500; }, 10s)) << "the drive never ran";
-    if (kill) {
-        holder.kill9();
-    } else {
-        ASSERT_TRUE(holder.printed("hung", 10s)) << holder.output();
-    }
+    holder.kill9();
     ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FD00") == 0; }, 20s))
         << "FD00 = " << stack.sim_register(1, "FD00") << "\n"
         << stack.daemon_output();
@@ -247,15 +244,48 @@ TEST(Ipc, ALeaseThatRunsOutStopsTheDrive_KilledClient) {
     options.drive_extra = "  lease = \"300ms\"\n  fallback = \"stop\"\n";
     Stack stack(options);
     Client holder({stack.bus(), "command", "30"});
-    expect_fallback_stops(stack, holder, true);
+    expect_fallback_stops(stack, holder);
 }
 
+// A hung application: its control thread blocks for good while the process, its other threads
+// and iceoryx's stay alive. Nothing renews its lease any more, so the drive reaches its fallback
+// (the ramp-stop word in FA00) within the lease time plus one poll period of the hung thread's
+// last keep_alive(), and never before the lease time has passed. The upper bound is asserted
+// with an allowance for a loaded machine: a library that renews on its own would never get
+// there, whatever the allowance.
 TEST(Ipc, ALeaseThatRunsOutStopsTheDrive_HungClient) {
+    constexpr auto kLease = 300ms;
+    constexpr auto kPoll = 50ms;
+    constexpr auto kLoadAllowance = 10s;
     StackOptions options;
     options.drive_extra = "  lease = \"300ms\"\n";
+    options.poll_period = "50ms";
     Stack stack(options);
     Client holder({stack.bus(), "hang", "30"});
-    expect_fallback_stops(stack, holder, false);
+    ASSERT_TRUE(holder.printed("holding", 10s)) << holder.output();
+    ASSERT_TRUE(holder.printed("hung ", 20s)) << holder.output();
+    const auto hung = lines_with(holder.output(), "hung ");
+    ASSERT_EQ(hung.size(), 1U) << holder.output();
+    const std::int64_t last_keep_alive_ns = std::stoll(hung[0].substr(5));
+    const Clock::time_point last_keep_alive{std::chrono::nanoseconds(last_keep_alive_ns)};
+    ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == 0xC000; },
+                           std::chrono::duration_cast<std::chrono::milliseconds>(
+                               last_keep_alive + kLease + kPoll + kLoadAllowance - Clock::now())))
+        << "FA00 = " << stack.sim_register(1, "FA00") << "\n"
+        << stack.daemon_output();
+    // The process is alive all along: its main thread sees the expiry it caused.
+    ASSERT_TRUE(holder.printed("expired ", 10s)) << holder.output();
+    const auto expired = lines_with(holder.output(), "expired ");
+    ASSERT_EQ(expired.size(), 1U) << holder.output();
+    const std::int64_t expired_ns = std::stoll(expired[0].substr(8));
+    EXPECT_GE(expired_ns - last_keep_alive_ns, std::chrono::nanoseconds(kLease).count()) << "ran out early";
+    EXPECT_NE(expired[0].find("fallback_ok 1"), std::string::npos) << expired[0];
+    // And the drive, told to stop, ramps down.
+    ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FD00") == 0; }, 20s))
+        << "FD00 = " << stack.sim_register(1, "FD00");
+    EXPECT_NE(stack.daemon_output().find("control lease of test_client_hang"), std::string::npos)
+        << stack.daemon_output();
+    EXPECT_NE(stack.daemon_output().find("fallback: stop"), std::string::npos) << stack.daemon_output();
 }
 
 // The fallback write has its own slot ahead of every client queue: with other clients
@@ -305,6 +335,42 @@ TEST(Ipc, ALiveLeaseKeepsTheDriveRunningAndShutsOutOtherWriters) {
     // The refused write never reached the wire: only polls went out meanwhile, and none wrote FA01.
     EXPECT_GT(stack.sim_requests(), requests);
     EXPECT_EQ(stack.sim().command("writes 1").find("0xFA01=1000"), std::string::npos);
+}
+
+// Finding 7 of issue 14: the lease is a capability, not a name. A second client that poses as
+// the holder (its client id, its published name and pid, a token of nothing or made of what it
+// knows) can neither write the command nor renew nor release the lease; the holder keeps it,
+// so when the holder then dies, the fallback follows.
+TEST(Ipc, AClientPosingAsTheHolderCannotWriteUnderTheLeaseNorReleaseIt) {
+    StackOptions options;
+    options.drive_extra = "  lease = \"300ms\"\n  fallback = \"stop\"\n";
+    Stack stack(options);
+    Client holder({stack.bus(), "command", "30"});
+    ASSERT_TRUE(holder.printed("holding", 10s)) << holder.output();
+    ASSERT_TRUE(holder.printed("client ", 10s)) << holder.output();
+    const auto id = lines_with(holder.output(), "client ");
+    ASSERT_EQ(id.size(), 1U) << holder.output();
+    ASSERT_EQ(stack.sim_register(1, "FA00"), 0xC400);
+
+    Client impostor({stack.bus(), "impostor", id[0].substr(7)});
+    EXPECT_EQ(impostor.wait(30s), 0) << impostor.output();
+    EXPECT_EQ(lines_with(impostor.output(), "write not permitted").size(), 2U) << impostor.output();
+    EXPECT_EQ(lines_with(impostor.output(), "renew not permitted").size(), 2U) << impostor.output();
+    EXPECT_EQ(lines_with(impostor.output(), "release not permitted").size(), 2U) << impostor.output();
+    // Its write never reached the drive, and the lease neither moved nor ended.
+    EXPECT_EQ(stack.sim_register(1, "FA00"), 0xC400);
+    const auto writes = stack.sim().command("writes 1");
+    EXPECT_EQ(writes.find("0xFA00=51200"), std::string::npos) << writes;
+    EXPECT_EQ(stack.daemon_output().find("took the control lease over"), std::string::npos) << stack.daemon_output();
+    EXPECT_EQ(stack.daemon_output().find("released the control lease"), std::string::npos) << stack.daemon_output();
+
+    // Still the holder's lease: when the holder dies, the drive gets its stop word.
+    holder.kill9();
+    ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == 0xC000; }, 10s))
+        << "FA00 = " << stack.sim_register(1, "FA00") << "\n"
+        << stack.daemon_output();
+    EXPECT_NE(stack.daemon_output().find("control lease of test_client_command"), std::string::npos)
+        << stack.daemon_output();
 }
 
 TEST(Ipc, ClientsNoticeWhenTheDaemonIsGone) {

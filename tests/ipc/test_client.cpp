@@ -7,16 +7,30 @@
 //   test_client BUS broadcast ADDR V...   one broadcast write (FC06 or FC16) to address 0: "sent"
 //   test_client BUS flood REG             reads REG until killed: "ready" after the first
 //   test_client BUS command HZ            take the pump's lease, run forward at HZ, "holding",
-//                                         then renew until killed
-//   test_client BUS hang HZ               same; once FD00 passes 5 Hz it stops renewing (a hung
-//                                         application): "hung"
+//                                         "client ID" (its Bus::client_id()), then a control loop
+//                                         until killed: each new snapshot, keep_alive()
+//   test_client BUS hang HZ               same, the loop on its own thread; once FD00 passes 5 Hz
+//                                         that thread blocks for good after printing
+//                                         "hung T" (T: CLOCK_MONOTONIC ns just before its last
+//                                         keep_alive), while the main thread and iceoryx's stay
+//                                         alive: the main thread watches the snapshots and prints
+//                                         "expired E fallback_ok 0|1" (E: the lease's expired_ns)
+//   test_client BUS impostor ID           waits for a pump snapshot whose lease is held, then poses
+//                                         as its holder: client id ID, the holder's published name
+//                                         and pid, and a token of nothing or made of ID; tries to
+//                                         write FA00 = 0xC800, renew and release: "write|renew|
+//                                         release STATUS" for each token; exits 0 when every one
+//                                         was "not permitted"
 //   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
 //                                         expired and whose fallback was acknowledged:
 //                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
 // Exit status: 0, or 1 with the library's one-line error on stderr.
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <expected>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -48,9 +62,32 @@ std::expected<std::vector<std::uint16_t>, drivebus::Error> read_on_a_busy_machin
     }
 }
 
-void forever() {
+std::int64_t monotonic_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+// An application's control loop: on each new snapshot it shows it is alive. With `hang_above`,
+// it hangs (blocks on a condition that never comes) once FD00 passes that value.
+void control_loop(const drivebus::Drive& pump, std::optional<unsigned> hang_above) {
+    std::uint64_t seen = 0;
     for (;;) {
-        std::this_thread::sleep_for(std::chrono::hours(1));
+        auto s = pump.wait_snapshot(std::chrono::milliseconds(50), seen);
+        if (s) {
+            seen = s->sequence;
+        }
+        const auto before = monotonic_ns();
+        if (auto ok = pump.keep_alive(); !ok) {
+            std::fprintf(stderr, "keep_alive: %s\n", ok.error().message.c_str());
+        }
+        const auto* fd00 = s ? s->find(0xFD00) : nullptr;
+        if (hang_above && fd00 != nullptr && fd00->value > *hang_above) {
+            std::printf("hung %lld\n", static_cast<long long>(before));
+            std::mutex m;
+            std::condition_variable never;
+            std::unique_lock lock(m);
+            never.wait(lock, [] { return false; });
+        }
     }
 }
 
@@ -153,9 +190,50 @@ int main(int argc, char** argv) {
         }
         std::printf("lease %s holder %s fallback_ok %u registers %u\n",
                     std::string(drivebus::shm::to_string(last.lease.state)).c_str(),
-                    last.lease.holder != 0 ? "kept" : "none", static_cast<unsigned>(last.lease.fallback_ok),
+                    drivebus::shm::view(last.lease.holder).empty() ? "none" : "kept", static_cast<unsigned>(last.lease.fallback_ok),
                     static_cast<unsigned>(last.register_count));
         return last.lease.state == drivebus::shm::LeaseState::Expired ? 0 : 1;
+    }
+    if (mode == "impostor" && argc == 4) {
+        const auto id = std::strtoull(argv[3], nullptr, 10);
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+        std::optional<drivebus::shm::LeaseStatus> held;
+        while (!held && std::chrono::steady_clock::now() < until) {
+            auto s = pump->wait_snapshot(std::chrono::milliseconds(200));
+            if (s && s->lease.state == drivebus::shm::LeaseState::Held) {
+                held = s->lease;
+            }
+        }
+        if (!held) {
+            std::fprintf(stderr, "test_client: no held lease seen\n");
+            return 1;
+        }
+        bool refused = true;
+        for (const drivebus::shm::LeaseToken token : {drivebus::shm::LeaseToken{}, drivebus::shm::LeaseToken{id, id}}) {
+            for (const auto kind : {drivebus::shm::RequestKind::Write, drivebus::shm::RequestKind::LeaseRenew,
+                                    drivebus::shm::RequestKind::LeaseRelease}) {
+                drivebus::shm::Request r;
+                r.kind = kind;
+                r.client = id;
+                r.client_name = held->holder;
+                r.pid = held->holder_pid;
+                r.lease_token = token;
+                drivebus::shm::assign(r.drive, "pump");
+                r.start = 0xFA00;
+                r.count = kind == drivebus::shm::RequestKind::Write ? 1 : 0;
+                r.values[0] = 0xC800;
+                auto response = bus->request(r);
+                if (!response) {
+                    return fail(response.error());
+                }
+                const char* what = kind == drivebus::shm::RequestKind::Write        ? "write"
+                                   : kind == drivebus::shm::RequestKind::LeaseRenew ? "renew"
+                                                                                    : "release";
+                std::printf("%s %s\n", what, std::string(drivebus::shm::to_string(response->status)).c_str());
+                refused = refused && response->status == drivebus::shm::Status::NotPermitted;
+            }
+        }
+        return refused ? 0 : 1;
     }
     if ((mode == "command" || mode == "hang") && argc == 4) {
         const drivebus::Altivar altivar(*pump);
@@ -166,23 +244,27 @@ int main(int argc, char** argv) {
             return fail(ok.error());
         }
         std::printf("holding\n");
-        if (mode == "hang") {
-            // Renew until the drive runs, then hang: the lease is no longer renewed.
-            std::uint64_t seen = 0;
-            for (;;) {
-                auto s = pump->wait_snapshot(std::chrono::seconds(1), seen);
-                if (s) {
-                    seen = s->sequence;
-                    const auto* fd00 = s->find(0xFD00);
-                    if (fd00 != nullptr && fd00->value > 500) {
-                        break;
-                    }
-                }
-            }
-            pump->stop_renewing();
-            std::printf("hung\n");
+        std::printf("client %llu\n", static_cast<unsigned long long>(bus->client_id()));
+        if (mode == "command") {
+            control_loop(*pump, std::nullopt);
         }
-        forever();
+        // The hung application: its control thread blocks, everything else of the process runs.
+        std::thread control([&] { control_loop(*pump, 500U); });
+        control.detach();
+        std::uint64_t seen = 0;
+        bool told = false;
+        for (;;) {
+            auto s = pump->wait_snapshot(std::chrono::milliseconds(200), seen);
+            if (!s) {
+                continue;
+            }
+            seen = s->sequence;
+            if (!told && s->lease.state == drivebus::shm::LeaseState::Expired && s->lease.fallback_ok != 0) {
+                std::printf("expired %lld fallback_ok %u\n", static_cast<long long>(s->lease.expired_ns),
+                            static_cast<unsigned>(s->lease.fallback_ok));
+                told = true;
+            }
+        }
     }
     std::fprintf(stderr, "test_client: bad arguments for mode %s\n", mode.c_str());
     return 2;
