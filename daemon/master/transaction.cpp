@@ -143,6 +143,7 @@ void Transaction::finish(Outcome outcome, rtu::Instant now) {
         result_ = Result{};
     }
     result_->outcome = outcome;
+    result_->after_timeout = timeouts_ > 0;
     result_->attempts = attempts_;
     result_->finished = now;
     result_->late_replies = late_;
