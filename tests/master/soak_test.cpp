@@ -161,7 +161,8 @@ struct Tally {
 
 class Soak {
 public:
-    Soak(std::uint64_t seed, bool echo, bool combined) : seed_(seed), echo_(echo), combined_(combined), rng_(seed) {
+    Soak(std::uint64_t seed, bool echo, bool combined, std::string_view kinds)
+        : seed_(seed), echo_(echo), combined_(combined), kinds_(kinds), rng_(seed) {
         config_.response_timeout = 100ms;
         config_.retries = 2;
         config_.echo = echo ? config::EchoMode::On : config::EchoMode::Off;
@@ -590,13 +591,14 @@ private:
     static constexpr const char* kKinds[] = {"crc", "drop", "late", "gap", "noise"};
 
     // DRIVEBUS_SOAK_FAULTS (say "crc,late,held") narrows the faults to those kinds, to tell
-    // which one a failure needs; by default every kind, and deliveries held back ("held").
-    [[nodiscard]] static bool enabled(std::string_view kind) {
-        const char* only = std::getenv("DRIVEBUS_SOAK_FAULTS");
-        if (only == nullptr || *only == '\0') {
+    // which one a failure needs; by default the test's own list, or every kind, and deliveries
+    // held back ("held").
+    [[nodiscard]] bool enabled(std::string_view kind) const {
+        const char* env = std::getenv("DRIVEBUS_SOAK_FAULTS");
+        std::string_view list = env != nullptr && *env != '\0' ? std::string_view(env) : kinds_;
+        if (list.empty()) {
             return true;
         }
-        std::string_view list(only);
         while (!list.empty()) {
             const auto comma = list.find(',');
             if (list.substr(0, comma) == kind) {
@@ -716,6 +718,7 @@ private:
     std::uint64_t seed_;
     bool echo_;
     bool combined_;
+    std::string_view kinds_;
     std::mt19937_64 rng_;
     std::shared_ptr<const Profile> atv21_ = load("atv21");
     std::shared_ptr<const Profile> atv58_ = load("atv58");
@@ -739,12 +742,13 @@ private:
     Tally tally_;
 };
 
-void soak(bool echo, double share, bool combined = false, std::optional<std::uint64_t> seed_default = std::nullopt) {
+void soak(bool echo, double share, bool combined = false, std::string_view kinds = {},
+          std::optional<std::uint64_t> seed_default = std::nullopt) {
     const std::uint64_t seed = env_number("DRIVEBUS_SOAK_SEED", seed_default.value_or(std::random_device{}()));
     const auto transactions = static_cast<std::uint64_t>(
         static_cast<double>(env_number("DRIVEBUS_SOAK_TRANSACTIONS", kSuiteTransactions)) * share);
     SCOPED_TRACE("DRIVEBUS_SOAK_SEED=" + std::to_string(seed));
-    Soak s(seed, echo, combined);
+    Soak s(seed, echo, combined, kinds);
     s.run(transactions);
     std::cout << s.summary() << std::endl;
     const Tally& t = s.tally();
@@ -771,6 +775,13 @@ TEST(EngineSoak, NoWrongValueNoLostWriteWithEcho) {
     soak(true, 0.2);
 }
 
+// Late replies, CRC errors, drops and deliveries held back, several at once on both drives
+// (found with this mix: a transaction that ended on a spoiled frame after a time-out left no
+// quiet time, and the last attempt's late reply was taken by the next request).
+TEST(EngineSoak, NoWrongValueUnderLateCrcDropAndHeldTogether) {
+    soak(false, 0.2, true, "late,crc,drop,held");
+}
+
 // Faults of several kinds at once on both drives, noise as long as a reply, silences that cut
 // a reply past the delivery allowance, deliveries held back on top, and replies up to 2.5 x the
 // time-out late on both drives. Disabled: it finds wrong values (seed 1: 784 of 316203 checked,
@@ -783,10 +794,10 @@ TEST(EngineSoak, NoWrongValueNoLostWriteWithEcho) {
 //  - Noise in front of a reply whose rest the kernel holds back: the frame does not begin with
 //    the slave's address, so the reply's wire bound and the delivery allowance do not keep the
 //    line busy, and the held rest is taken for the next request's reply.
-// Late replies together with drops, CRC errors or faults on the other drive still give a wrong
-// value now and then (seeds 28 and 36 of this mix before the late-reply fixes; not yet traced).
+// DRIVEBUS_SOAK_FAULTS=noise or =gap alone finds them in this mix; late,crc,drop,held does
+// not (the test above).
 TEST(EngineSoak, DISABLED_CombinedFaults) {
-    soak(false, 0.8, true, 1);
+    soak(false, 0.8, true, {}, 1);
 }
 
 }  // namespace
