@@ -40,6 +40,7 @@ void ProfileDrive::log_writes(const rtu::Request& request) {
             write_log_.pop_front();
         }
         write_log_.emplace_back(address, value);
+        ++writes_accepted_;
     };
     if (const auto* one = std::get_if<rtu::WriteSingleRegister>(&request)) {
         add(one->address, one->value);

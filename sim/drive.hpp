@@ -37,6 +37,9 @@ public:
     [[nodiscard]] const std::deque<std::pair<std::uint16_t, std::uint16_t>>& write_log() const noexcept {
         return write_log_;
     }
+    // How many register writes the drive has accepted since it started: the log keeps only the
+    // last ones, so a reader that comes back tells from this how many of them are new.
+    [[nodiscard]] std::uint64_t writes_accepted() const noexcept { return writes_accepted_; }
     // Lets time run to `now`.
     virtual void advance(rtu::Instant now);
 
@@ -72,6 +75,7 @@ private:
     static constexpr std::size_t kWriteLogSize = 1024;
     void log_writes(const rtu::Request& request);
     std::deque<std::pair<std::uint16_t, std::uint16_t>> write_log_;
+    std::uint64_t writes_accepted_ = 0;
 };
 
 // Makes the drive for a profile type ("atv21", "atv58", or any other profile as a plain

@@ -37,6 +37,7 @@ void BusEngine::line_up(rtu::Instant now) {
     framer_.reset();
     last_tx_end_.reset();
     quiet_until_.reset();
+    quiet_after_transmission_ = false;
     scheduler_.line_up(now);
     ++status_.sequence;
 }
@@ -213,9 +214,21 @@ void BusEngine::finish_if_done(rtu::Instant now) {
     // could look the same: stay quiet for as long as the slave has been seen to answer late.
     const bool timed_out = result.after_timeout || result.outcome == Outcome::Timeout || result.outcome == Outcome::Late;
     const rtu::SlaveAddress address = job.request.address;
-    if (timed_out && last_tx_end_ && horizon_[address].count() > 0) {
-        quiet_until_ = *last_tx_end_ + horizon_[address];
+    if (result.after_timeout && (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception)) {
+        // The reply taken may have been a timed-out attempt's, come later than the time-out and
+        // the guard: then the slave answers that late, and the last attempt's own reply is
+        // still on its way. Remembered as the slave's lateness, so the line stays quiet for it.
+        horizon_[address] = std::max(horizon_[address], result.possible_latency + options_.late_reply_guard);
+    }
+    if (timed_out && horizon_[address].count() > 0) {
         quiet_address_ = address;
+        if (transmitting_) {
+            // An earlier attempt's reply came while the last one was still going out: the
+            // quiet time runs from when that has left the wire.
+            quiet_after_transmission_ = true;
+        } else if (last_tx_end_) {
+            quiet_until_ = *last_tx_end_ + horizon_[address];
+        }
     }
     if (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception) {
         if (job.request.address != rtu::kBroadcastAddress) {
@@ -311,6 +324,10 @@ void BusEngine::written(rtu::Instant now) {
 void BusEngine::transmitted(rtu::Instant tx_end) {
     transmitting_ = false;
     last_tx_end_ = tx_end;
+    if (quiet_after_transmission_) {
+        quiet_after_transmission_ = false;
+        quiet_until_ = tx_end + horizon_[quiet_address_];
+    }
     if (transaction_) {
         transaction_->sent(tx_end);
     }

@@ -105,6 +105,7 @@ private:
     // After a transaction with a timed-out attempt: frames from that slave before this are late.
     std::optional<rtu::Instant> quiet_until_;
     rtu::SlaveAddress quiet_address_ = 0;
+    bool quiet_after_transmission_ = false;  // the quiet time starts when the request on the wire has left it
     std::array<rtu::Duration, 256> horizon_{};
 };
 

@@ -28,9 +28,14 @@ struct Result {
     unsigned attempts = 0;
     rtu::Duration latency{};  // from the request leaving the wire to the reply's last character
     rtu::Instant finished{};
-    bool after_timeout = false;     // a reply that came on a retry, after an attempt timed out
+    // An attempt timed out before the transaction ended, however it ended: its reply may still
+    // come (or be the reply taken).
+    bool after_timeout = false;
     unsigned late_replies = 0;      // replies discarded because they came after the time-out
     rtu::Duration late_latency{};   // the latest of them, from its attempt leaving the wire
+    // For a reply after a time-out: how late it would be as the reply to the first attempt
+    // that timed out (the same request, so the same bytes: it may well be that one's).
+    rtu::Duration possible_latency{};
 
     [[nodiscard]] std::optional<rtu::ExceptionCode> exception() const noexcept {
         if (response) {

@@ -72,6 +72,9 @@ Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
     result_ = Result{};
     result_->response = reply->pdu;
     result_->after_timeout = timeouts_ > 0;
+    if (first_timeout_tx_end_) {
+        result_->possible_latency = frame.first - *first_timeout_tx_end_;
+    }
     result_->latency = frame.last - (state_ == State::AwaitingReply ? tx_end_ : written_at_);
     const bool exception = std::holds_alternative<rtu::ExceptionResponse>(reply->pdu);
     finish(exception ? Outcome::Exception : Outcome::Ok, frame.last);
@@ -111,6 +114,9 @@ void Transaction::on_time(rtu::Instant now) {
 
 void Transaction::timed_out(rtu::Instant now) {
     ++timeouts_;
+    if (!first_timeout_tx_end_) {
+        first_timeout_tx_end_ = tx_end_;
+    }
     if (options_.late_reply_guard.count() > 0) {
         state_ = State::Guard;
         deadline_ = now + options_.late_reply_guard;
@@ -137,6 +143,7 @@ void Transaction::finish(Outcome outcome, rtu::Instant now) {
         result_ = Result{};
     }
     result_->outcome = outcome;
+    result_->after_timeout = timeouts_ > 0;
     result_->attempts = attempts_;
     result_->finished = now;
     result_->late_replies = late_;

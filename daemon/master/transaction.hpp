@@ -98,6 +98,7 @@ private:
     std::optional<rtu::Instant> deadline_;
     std::optional<Result> result_;
     unsigned timeouts_ = 0;
+    std::optional<rtu::Instant> first_timeout_tx_end_;  // when the first attempt that timed out left the wire
     unsigned late_ = 0;
     rtu::Duration late_latency_{};
 };

@@ -42,6 +42,7 @@ public:
     [[nodiscard]] std::uint16_t sim_register(int address, const std::string& reg) const;
     // drivebusd's output so far.
     [[nodiscard]] std::string daemon_output() const;
+    [[nodiscard]] int daemon_pid() const noexcept { return daemon_->pid(); }
     // Stops drivebusd (SIGTERM) and returns its exit status.
     int stop_daemon();
     // The configuration text drivebusd was started with.

@@ -21,6 +21,8 @@
 //                                         write FA00 = 0xC800, renew and release: "write|renew|
 //                                         release STATUS" for each token; exits 0 when every one
 //                                         was "not permitted"
+//   test_client BUS churn N FIRST         N reads of FE35 or writes of FA51 (FIRST, FIRST+1, ...) at
+//                                         random, on through errors (the process soak)
 //   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
 //                                         expired and whose fallback was acknowledged:
 //                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
@@ -172,6 +174,34 @@ int main(int argc, char** argv) {
                 first = false;
             }
         }
+    }
+    if (mode == "churn" && argc == 5) {
+        // Reads of FE35 and writes of FA51 (from FIRST on, one new value each), alternating at
+        // random, carrying on after errors: "read V", "wrote V", "error KIND" / "unknown V KIND"
+        // for a write whose outcome is unknown; "done" at the end.
+        const int count = std::atoi(argv[3]);
+        auto value = static_cast<std::uint16_t>(std::strtoul(argv[4], nullptr, 0));
+        std::uint32_t x = value * 2654435761U + 1;
+        for (int i = 0; i < count; ++i) {
+            x = x * 1664525U + 1013904223U;
+            if ((x >> 16) % 2 == 0) {
+                auto v = pump->read("FE35");
+                if (v) {
+                    std::printf("read %u\n", v->at(0));
+                } else {
+                    std::printf("error %s\n", std::string(drivebus::to_string(v.error().kind)).c_str());
+                }
+                continue;
+            }
+            if (auto ok = pump->write("FA51", std::span(&value, 1)); ok) {
+                std::printf("wrote %u\n", value);
+            } else {
+                std::printf("unknown %u %s\n", value, std::string(drivebus::to_string(ok.error().kind)).c_str());
+            }
+            ++value;
+        }
+        std::printf("done\n");
+        return 0;
     }
     if (mode == "lease" && argc == 3) {
         const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);

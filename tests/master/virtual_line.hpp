@@ -70,6 +70,12 @@ public:
         return true;
     }
     void set_delivery(Delivery delivery) { delivery_ = std::move(delivery); }
+    // Told of every request frame the drives have just handled, at that time: what they hold
+    // now is what their reply carries.
+    using Handled = std::function<void(const rtu::Frame& request, rtu::Instant at)>;
+    void set_handled(Handled handled) { handled_ = std::move(handled); }
+    // Whether transmissions() keeps every request (a long soak keeps its own short record).
+    void set_recording(bool on) noexcept { recording_ = on; }
     [[nodiscard]] std::size_t replies() const noexcept { return replies_; }
 
     [[nodiscard]] rtu::Instant now() const noexcept { return now_; }
@@ -91,7 +97,9 @@ private:
                 prior = std::max(prior, p.byte.at);
             }
         }
-        sent_.push_back({now_, engine_.line_free_at(), prior, adu});
+        if (recording_) {
+            sent_.push_back({now_, engine_.line_free_at(), prior, adu});
+        }
         engine_.written(now_);
         const rtu::Instant tx_end = now_ + timing_.character * static_cast<std::int64_t>(adu.size());
         pending_tx_end_ = tx_end;
@@ -144,6 +152,9 @@ private:
         while (auto event = slave_framer_.next_event()) {
             if (const auto* frame = std::get_if<rtu::Frame>(&*event)) {
                 queue_reply(drives_.on_frame(*frame));
+                if (handled_) {
+                    handled_(*frame, now_);
+                }
             }
         }
         // What the kernel hands over by now arrives in one read; PARMRK doubles a data 0xFF,
@@ -175,6 +186,8 @@ private:
     rtu::Framer slave_framer_;
     std::deque<Pending> to_master_;
     Delivery delivery_;
+    Handled handled_;
+    bool recording_ = true;
     std::size_t replies_ = 0;
     std::optional<rtu::Instant> pending_tx_end_;
     std::vector<Transmission> sent_;

@@ -261,6 +261,47 @@ TEST_P(LateReplies, NeverGiveAWrongValue) {
     expect_silences_kept();
 }
 
+// A drive seen late once has its lateness remembered; when it then answers later still, past
+// the time-out and the guard, a retry takes the first attempt's late reply (the same request:
+// a right answer), and the retry's own reply is still on its way when the transaction ends. It
+// must not land in the next request's wait (found by the soak: FE36 read as FC90's value).
+TEST_F(WireRules, ALatenessGrowingPastTheGuardIsNeverTakenForTheNextReply) {
+    config.response_timeout = 100ms;
+    config.drives.push_back(drive("pump", 1, atv21));
+    drives.add(sim::make_drive(1, atv21));
+    const std::map<std::uint16_t, std::uint16_t> values{{0xFE35, 101}, {0xFE36, 202}, {0xFA50, 33}, {0xFA51, 404}};
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0));
+    ASSERT_TRUE(drives.drive(1)->poke("FE35", 101));
+    ASSERT_TRUE(drives.drive(1)->poke("FE36", 202));
+    ASSERT_TRUE(drives.drive(1)->poke("FA50", 33));
+    ASSERT_TRUE(drives.drive(1)->poke("FA51", 404));
+    start();
+    std::size_t asked = 0;
+    std::size_t wrong = 0;
+    std::size_t ok = 0;
+    const auto reads = [&](std::size_t n) {
+        for (std::size_t i = 0; i < n; ++i, ++asked) {
+            const std::uint16_t reg = std::next(values.begin(), static_cast<std::ptrdiff_t>(asked % 4))->first;
+            results.clear();
+            ASSERT_TRUE(engine->submit({1, asked, {1, rtu::ReadHoldingRegisters{reg, 1}}, false}).has_value());
+            ASSERT_TRUE(line->run_until_true([&] { return !results.empty(); }, 60s));
+            if (results.front().second.outcome == master::Outcome::Ok) {
+                ++ok;
+                const auto& reply = std::get<rtu::ReadHoldingRegistersResponse>(*results.front().second.response);
+                wrong += reply.values.words()[0] != values.at(reg) ? 1U : 0U;
+            }
+        }
+    };
+    ASSERT_TRUE(drives.faults().apply(1, "late=110ms").has_value());
+    reads(100);
+    ASSERT_GT(engine->status().counters.late_replies, 0U) << "the drive was seen late";
+    ASSERT_TRUE(drives.faults().apply(1, "late=231ms").has_value());
+    reads(1000);
+    EXPECT_EQ(wrong, 0U) << "of " << ok << " values";
+    EXPECT_GT(ok, 0U);
+    expect_silences_kept();
+}
+
 INSTANTIATE_TEST_SUITE_P(OfTheTimeout, LateReplies, ::testing::Values(0.5, 0.9, 1.1, 1.5, 2.5),
                          [](const auto& p) { return "x" + std::to_string(static_cast<int>(p.param * 10)); });
 

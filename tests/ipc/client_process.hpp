@@ -1,0 +1,114 @@
+// A client program as a child process whose output the test reads as it runs (TEST_CLIENT_PATH
+// by default: the includer defines it).
+#pragma once
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "sim_process.hpp"
+
+namespace drivebus::test {
+
+// A test_client process (or `program`) whose stdout is read as it runs.
+class Client {
+public:
+    explicit Client(const std::vector<std::string>& args, const char* program = TEST_CLIENT_PATH) {
+        int fds[2];
+        if (::pipe2(fds, O_CLOEXEC) != 0) {
+            throw std::runtime_error("pipe");
+        }
+        pid_ = ::fork();
+        if (pid_ == 0) {
+            // A test killed by its time-out takes its children with it: a daemon left running would
+            // hold the machine's RouDi and fail every test after it.
+            ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+            ::dup2(fds[1], STDOUT_FILENO);
+            ::dup2(fds[1], STDERR_FILENO);
+            std::vector<char*> argv;
+            std::vector<std::string> all = {program};
+            all.insert(all.end(), args.begin(), args.end());
+            for (auto& a : all) {
+                argv.push_back(a.data());
+            }
+            argv.push_back(nullptr);
+            ::execv(argv[0], argv.data());
+            ::_exit(127);
+        }
+        ::close(fds[1]);
+        fd_ = fds[0];
+        ::fcntl(fd_, F_SETFL, O_NONBLOCK);
+    }
+    ~Client() {
+        if (pid_ > 0) {
+            ::kill(pid_, SIGKILL);
+            ::waitpid(pid_, nullptr, 0);
+        }
+        ::close(fd_);
+    }
+    Client(const Client&) = delete;
+    Client& operator=(const Client&) = delete;
+    Client(Client&&) = delete;
+    Client& operator=(Client&&) = delete;
+
+    // Everything it has printed so far.
+    const std::string& output() {
+        char buf[4096];
+        ssize_t n = 0;
+        while ((n = ::read(fd_, buf, sizeof buf)) > 0) {
+            out_.append(buf, static_cast<std::size_t>(n));
+        }
+        return out_;
+    }
+    bool printed(const std::string& text, std::chrono::milliseconds timeout) {
+        return wait_until([&] { return output().find(text) != std::string::npos; }, timeout);
+    }
+    // Waits for it to end; its exit status, or -1 on timeout.
+    int wait(std::chrono::milliseconds timeout) {
+        if (pid_ <= 0) {
+            return -1;
+        }
+        int status = 0;
+        const bool done = wait_until([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout);
+        if (!done) {
+            return -1;
+        }
+        pid_ = -1;
+        output();
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    }
+    // Idempotent: once it has ended, pid_ is -1, and kill(-1) would signal every process.
+    void kill9() {
+        if (pid_ <= 0) {
+            return;
+        }
+        ::kill(pid_, SIGKILL);
+        ::waitpid(pid_, nullptr, 0);
+        pid_ = -1;
+    }
+
+private:
+    int pid_ = -1;
+    int fd_ = -1;
+    std::string out_;
+};
+
+inline std::vector<std::string> lines_with(const std::string& text, const std::string& prefix) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+        if (line.rfind(prefix, 0) == 0) {
+            out.push_back(line);
+        }
+    }
+    return out;
+}
+
+}  // namespace drivebus::test
