@@ -149,7 +149,8 @@ void BusEngine::take_events(rtu::Instant now) {
         case rtu::FrameFault::TooShort: ++status_.counters.noise; break;
         }
         // A spoiled frame of a reply's size while awaiting the reply was the reply, or ruined
-        // it: the attempt failed. Shorter noise is only counted; the reply may follow it.
+        // it, or was noise before it: the attempt is spoiled (see Transaction::on_bad_frame()).
+        // Shorter noise is only counted; the reply may follow it.
         if (transaction_ && discarded.bytes >= rtu::kMinAduSize) {
             transaction_->on_bad_frame(now, discarded.first);
         }

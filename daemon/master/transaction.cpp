@@ -27,6 +27,7 @@ void Transaction::written(rtu::Instant now) {
         return;
     }
     ++attempts_;
+    spoiled_ = false;
     written_at_ = now;
     state_ = State::Sending;
     deadline_.reset();
@@ -66,7 +67,7 @@ Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
         if (frame.adu.empty() || frame.adu[0] != request_.address) {
             return Verdict::Foreign;
         }
-        attempt_failed(Outcome::BadFrame, frame.last);
+        spoiled_ = true;  // perhaps a stale reply of another shape: this one may still come
         return Verdict::Malformed;
     }
     result_ = Result{};
@@ -81,9 +82,9 @@ Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
     return Verdict::Reply;
 }
 
-void Transaction::on_bad_frame(rtu::Instant now, rtu::Instant began) {
+void Transaction::on_bad_frame(rtu::Instant /*now*/, rtu::Instant began) {
     if (state_ == State::AwaitingReply && began >= written_at_ + options_.earliest_reply) {
-        attempt_failed(Outcome::BadFrame, now);
+        spoiled_ = true;
     }
 }
 
@@ -108,7 +109,7 @@ void Transaction::on_time(rtu::Instant now) {
     } else if (state_ == State::AwaitingReply) {
         timed_out(now);
     } else if (state_ == State::Guard) {
-        attempt_failed(late_ > 0 ? Outcome::Late : Outcome::Timeout, now);
+        attempt_failed(silent_outcome(), now);
     }
 }
 
@@ -122,7 +123,16 @@ void Transaction::timed_out(rtu::Instant now) {
         deadline_ = now + options_.late_reply_guard;
         return;
     }
-    attempt_failed(Outcome::Timeout, now);
+    attempt_failed(silent_outcome(), now);
+}
+
+// How an attempt that got no good reply ends: a reply came after its time-out, or a frame was
+// spoiled, or nothing came at all.
+Outcome Transaction::silent_outcome() const noexcept {
+    if (late_ > 0) {
+        return Outcome::Late;
+    }
+    return spoiled_ ? Outcome::BadFrame : Outcome::Timeout;
 }
 
 std::optional<rtu::Instant> Transaction::deadline() const noexcept {

@@ -50,7 +50,7 @@ public:
     enum class Verdict : std::uint8_t {
         Reply,      // the reply: the transaction is done
         Foreign,    // from another slave (a late reply, or noise that framed): ignored
-        Malformed,  // from the addressed slave but not a valid reply: the attempt failed
+        Malformed,  // from the addressed slave but not a valid reply: the attempt is spoiled
         Late,       // from the addressed slave after its attempt timed out: discarded
         Ignored,    // not awaiting a reply
     };
@@ -71,8 +71,14 @@ public:
     // A complete frame while awaiting the reply.
     Verdict on_frame(const rtu::Frame& frame);
     // A frame the framer discarded (CRC, gap, parity) while awaiting the reply, whose first
-    // character ended at `began`: the reply was spoiled, so the attempt failed (retried once the
-    // line is free). One that began too soon to be the reply is not this attempt's.
+    // character ended at `began`: the attempt is spoiled. One that began too soon to be the
+    // reply is not this attempt's.
+    //
+    // A spoiled attempt does not end at once: the spoiled frame may have been noise, and the
+    // slave's reply still on its way. Retried at once, that reply would be taken for the
+    // retry's, and the retry's own reply for the next request's (Modbus RTU has no transaction
+    // id). So it waits for a good reply until the response time-out, then keeps the late-reply
+    // guard like a timed-out attempt, and fails as BadFrame.
     void on_bad_frame(rtu::Instant now, rtu::Instant began);
     // The echo of the request did not match what was sent.
     void on_echo_mismatch(rtu::Instant now);
@@ -86,6 +92,7 @@ public:
 private:
     void attempt_failed(Outcome why, rtu::Instant now);
     void timed_out(rtu::Instant now);
+    [[nodiscard]] Outcome silent_outcome() const noexcept;
     void finish(Outcome outcome, rtu::Instant now);
 
     TransactionOptions options_;
@@ -98,6 +105,7 @@ private:
     std::optional<rtu::Instant> deadline_;
     std::optional<Result> result_;
     unsigned timeouts_ = 0;
+    bool spoiled_ = false;  // this attempt saw a spoiled frame (see on_bad_frame())
     std::optional<rtu::Instant> first_timeout_tx_end_;  // when the first attempt that timed out left the wire
     unsigned late_ = 0;
     rtu::Duration late_latency_{};

@@ -69,16 +69,19 @@ TEST(Transaction, TimeoutsRetryThenGiveUp) {
     EXPECT_EQ(t.result()->attempts, 3U);
 }
 
-TEST(Transaction, ForeignFramesAreIgnoredMalformedOnesFailTheAttempt) {
+// A malformed frame from the slave (here two words for a one-word read: perhaps a stale reply
+// to another request) spoils the attempt, which still waits out its time-out for the reply.
+TEST(Transaction, ForeignFramesAreIgnoredMalformedOnesSpoilTheAttempt) {
     auto t = make(0);
     t.written(t0);
     t.sent(t0 + 4ms);
     EXPECT_EQ(t.on_frame(frame_of({2, rtu::ReadHoldingRegistersResponse{{1}}}, t0 + 8ms)),
               Transaction::Verdict::Foreign);
     EXPECT_EQ(t.state(), Transaction::State::AwaitingReply);
-    // From slave 1 but two words for a one-word read.
     EXPECT_EQ(t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{1, 2}}}, t0 + 9ms)),
               Transaction::Verdict::Malformed);
+    EXPECT_EQ(t.state(), Transaction::State::AwaitingReply);
+    t.on_time(t0 + 54ms);
     ASSERT_EQ(t.state(), Transaction::State::Done);
     EXPECT_EQ(t.result()->outcome, Outcome::BadFrame);
 }
@@ -93,17 +96,42 @@ TEST(Transaction, ExceptionIsAnAnswer) {
     EXPECT_EQ(t.result()->exception(), rtu::ExceptionCode::IllegalDataValue);
 }
 
+// An echo mismatch (the request itself was garbled on the wire: no slave answers it) retries
+// at once; a spoiled frame waits out the response time-out and the late-reply guard first.
 TEST(Transaction, BadFramesAndEchoMismatchesRetry) {
-    auto t = make(1);
+    const auto adu = rtu::encode_request(kRead).value();
+    Transaction t({50ms, 1, 10ms, 30ms}, kRead, adu);
     t.written(t0);
     t.on_echo_mismatch(t0 + 1ms);
     EXPECT_EQ(t.state(), Transaction::State::ReadyToSend);
     t.written(t0 + 10ms);
     t.sent(t0 + 14ms);
     t.on_bad_frame(t0 + 20ms, t0 + 18ms);
+    EXPECT_EQ(t.state(), Transaction::State::AwaitingReply);
+    t.on_time(t0 + 63ms);
+    EXPECT_EQ(t.state(), Transaction::State::AwaitingReply) << "not before the time-out";
+    t.on_time(t0 + 64ms);
+    EXPECT_EQ(t.state(), Transaction::State::Guard);
+    t.on_time(t0 + 94ms);
     ASSERT_EQ(t.state(), Transaction::State::Done);
     EXPECT_EQ(t.result()->outcome, Outcome::BadFrame);
     EXPECT_EQ(t.result()->attempts, 2U);
+}
+
+// Noise of a reply's size before the reply: the attempt is spoiled, but the reply that follows
+// within the time-out is this attempt's, and taken. Retried at once instead, the retry would
+// take this reply and leave its own for the next request.
+TEST(Transaction, AReplyAfterASpoiledFrameIsStillTheAttemptsReply) {
+    auto t = make(2);
+    t.written(t0);
+    t.sent(t0 + 4ms);
+    t.on_bad_frame(t0 + 10ms, t0 + 8ms);
+    EXPECT_EQ(t.state(), Transaction::State::AwaitingReply);
+    EXPECT_EQ(t.on_frame(frame_of({1, rtu::ReadHoldingRegistersResponse{{6000}}}, t0 + 20ms)),
+              Transaction::Verdict::Reply);
+    ASSERT_EQ(t.state(), Transaction::State::Done);
+    EXPECT_EQ(t.result()->outcome, Outcome::Ok);
+    EXPECT_EQ(t.result()->attempts, 1U);
 }
 
 TEST(Transaction, ASpoiledFrameThatBeganBeforeTheSlaveCouldAnswerIsNotTheReply) {
