@@ -8,6 +8,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -78,6 +80,8 @@ public:
         int status = 0;
         const bool done = wait_until([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout);
         if (!done) {
+            output();
+            out_ += "[still running after the wait: " + threads() + "]\n";
             return -1;
         }
         pid_ = -1;
@@ -92,6 +96,30 @@ public:
         ::kill(pid_, SIGKILL);
         ::waitpid(pid_, nullptr, 0);
         pid_ = -1;
+    }
+
+    // Where each of its threads waits (name, kernel wait channel, state): what a hung client
+    // was doing, for the failure message.
+    [[nodiscard]] std::string threads() const {
+        std::string out;
+        const std::filesystem::path tasks = "/proc/" + std::to_string(pid_) + "/task";
+        std::error_code ec;
+        for (const auto& task : std::filesystem::directory_iterator(tasks, ec)) {
+            const auto read = [&](const char* name) {
+                std::ifstream in(task.path() / name);
+                std::string text;
+                for (std::string line; std::getline(in, line);) {
+                    text += (text.empty() ? "" : "\n") + line;
+                }
+                return text;
+            };
+            const std::string status = read("status");
+            const auto state = status.find("State:");
+            out += task.path().filename().string() + " " + read("comm") + " wchan=" + read("wchan") + " " +
+                   (state == std::string::npos ? "" : status.substr(state + 7, status.find('\n', state) - state - 7)) +
+                   "; ";
+        }
+        return out;
     }
 
 private:

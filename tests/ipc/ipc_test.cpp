@@ -94,10 +94,11 @@ TEST(Ipc, AClientKilledMidRequestDisturbsNeitherTheDaemonNorTheOthers) {
     Client reader({stack.bus(), "read", "FD00", "60"});
     for (int round = 0; round < 3; ++round) {
         Client flood({stack.bus(), "flood", "FD01"});
-        ASSERT_TRUE(flood.printed("ready", 10s)) << flood.output();
+        ASSERT_TRUE(flood.printed("ready", 10s)) << flood.output() << "\n[flood: " << flood.threads() << "]\n"
+                                                 << stack.daemon_output();
         flood.kill9();  // almost surely with a request queued or on the wire
     }
-    ASSERT_EQ(reader.wait(30s), 0) << reader.output();
+    ASSERT_EQ(reader.wait(30s), 0) << reader.output() << "\n" << stack.daemon_output();
     EXPECT_EQ(lines_with(reader.output(), "value ").size(), 60U);
     // The daemon still serves a newcomer.
     Client after({stack.bus(), "read", "FD00", "3"});
