@@ -65,6 +65,18 @@ protected:
         EXPECT_GT(checked, 0U);
     }
     void expect_retry_after_bound(rtu::Duration allowance);
+    // Four registers of the ATV21 at address 1, each set to its own value (and its Modbus
+    // time-out, F803, off): what a read of each must return.
+    std::map<std::uint16_t, std::uint16_t> known_pump_values() {
+        EXPECT_TRUE(drives.drive(1)->poke("F803", 0));
+        const std::map<std::string, std::uint16_t> by_name{{"FE35", 101}, {"FE36", 202}, {"FA50", 33}, {"FA51", 404}};
+        std::map<std::uint16_t, std::uint16_t> values;
+        for (const auto& [name, value] : by_name) {
+            EXPECT_TRUE(drives.drive(1)->poke(name, value));
+            values[static_cast<std::uint16_t>(std::stoul(name, nullptr, 16))] = value;
+        }
+        return values;
+    }
     void expect_silences_kept() const {
         for (const auto& t : line->transmissions()) {
             ASSERT_GE(t.start - t.prior_activity, timing.t3_5) << "a request started too early";
@@ -208,12 +220,7 @@ TEST_P(LateReplies, NeverGiveAWrongValue) {
     auto d = drive("pump", 1, atv21);
     config.drives.push_back(d);
     drives.add(sim::make_drive(1, atv21));
-    const std::map<std::uint16_t, std::uint16_t> values{{0xFE35, 101}, {0xFE36, 202}, {0xFA50, 33}, {0xFA51, 404}};
-    ASSERT_TRUE(drives.drive(1)->poke("F803", 0));
-    ASSERT_TRUE(drives.drive(1)->poke("FE35", 101));
-    ASSERT_TRUE(drives.drive(1)->poke("FE36", 202));
-    ASSERT_TRUE(drives.drive(1)->poke("FA50", 33));
-    ASSERT_TRUE(drives.drive(1)->poke("FA51", 404));
+    const std::map<std::uint16_t, std::uint16_t> values = known_pump_values();
     const auto late = std::chrono::duration_cast<rtu::Duration>(config.response_timeout * factor);
     ASSERT_TRUE(drives.faults().apply(1, "late=" + std::to_string(late.count() / 1000) + "us").has_value());
     start();
@@ -269,12 +276,7 @@ TEST_F(WireRules, ALatenessGrowingPastTheGuardIsNeverTakenForTheNextReply) {
     config.response_timeout = 100ms;
     config.drives.push_back(drive("pump", 1, atv21));
     drives.add(sim::make_drive(1, atv21));
-    const std::map<std::uint16_t, std::uint16_t> values{{0xFE35, 101}, {0xFE36, 202}, {0xFA50, 33}, {0xFA51, 404}};
-    ASSERT_TRUE(drives.drive(1)->poke("F803", 0));
-    ASSERT_TRUE(drives.drive(1)->poke("FE35", 101));
-    ASSERT_TRUE(drives.drive(1)->poke("FE36", 202));
-    ASSERT_TRUE(drives.drive(1)->poke("FA50", 33));
-    ASSERT_TRUE(drives.drive(1)->poke("FA51", 404));
+    const std::map<std::uint16_t, std::uint16_t> values = known_pump_values();
     start();
     std::size_t asked = 0;
     std::size_t wrong = 0;
