@@ -92,7 +92,7 @@ TEST(Ipc, WritesFromTwoClientsAreAllAppliedEachInItsOrder) {
 // Disabled: an open defect. In full runs of the suite (ctest -j2, other tests beside it) the
 // reader has hung 3 times in 6 stage runs: it printed 4 to 19 of its 60 values, then neither a
 // value nor an error for 30 s, although a request gives up after 2 s (request_timeout); and
-// once a flood client did not get its first answer in 10 s. It has not happened in 40 runs of
+// once a flood client did not get its first answer in 10 s. It has not happened in about 30 runs of
 // this test alone, with or without stress-ng beside it. Suspected: iceoryx 2.0's inter-process
 // locks, which a process SIGKILLed while holding one never releases (RouDi then waits on it);
 // not confirmed. docs/ipc.md states the limit. Run it with --gtest_also_run_disabled_tests: on
