@@ -30,6 +30,7 @@ std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
         if (drives_[job.drive].fallback) {
             return std::unexpected(SubmitError::QueueFull);
         }
+        job.fallback = true;
         drives_[job.drive].fallback = std::move(job);
         return {};
     }

@@ -271,8 +271,10 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
     const bool answered = result.outcome == Outcome::Ok || result.outcome == Outcome::Exception;
     if (answered) {
         mark_present(job.drive, now);
-    } else if (result.outcome == Outcome::Timeout && job.kind != JobKind::Client) {
-        // Silent through every retry: absent until a probe gets an answer.
+    } else if (result.outcome == Outcome::Timeout && (job.kind != JobKind::Client || job.fallback)) {
+        // Silent through every retry: absent until a probe gets an answer. drivebusd's own
+        // fallback write counts as much as a poll: retried ahead of the polls, it may be the
+        // only request the drive gets while it is silent.
         const bool was_absent = drive.health == Health::Absent;
         mark_absent(job.drive, now);
         return was_absent ? std::nullopt : std::optional<std::size_t>(job.drive);

@@ -49,6 +49,7 @@ struct Job {
     rtu::RequestAdu request;
     std::optional<unsigned> retries;        // overrides the bus setting (probes: none)
     std::optional<rtu::Instant> scheduled;  // a poll cycle's first request: when its period made it due
+    bool fallback = false;                  // drivebusd's lease fallback (a client job of its own)
 };
 inline constexpr std::size_t kNoDrive = static_cast<std::size_t>(-1);
 

@@ -174,6 +174,27 @@ TEST_F(SchedulerTest, AFallbackWriteHasItsOwnSlotAheadOfEveryClientQueue) {
     EXPECT_EQ(first->drive, 1U);
 }
 
+// A fallback write silent through every retry marks its drive absent, as a poll would: it is
+// retried ahead of the polls, so it may be the only request a silent drive gets (then its
+// fallback is given up, rather than retried for ever).
+TEST_F(SchedulerTest, ASilentFallbackWriteMarksItsDriveAbsentAndAClientWriteDoesNot) {
+    master::Scheduler s(config, t0);
+    ASSERT_TRUE(s.submit({10, 1, {2, rtu::WriteSingleRegister{400, 1}}}).has_value());
+    auto client = s.next(t0);
+    ASSERT_TRUE(client);
+    EXPECT_FALSE(client->fallback);
+    (void)s.complete(*client, silent(), t0);
+    EXPECT_NE(s.health(1), master::Health::Absent) << "a client's time-out says nothing of the drive";
+    master::ClientRequest fallback{0, 99, {2, rtu::WriteSingleRegister{400, 0}}};
+    fallback.fallback = true;
+    ASSERT_TRUE(s.submit(fallback).has_value());
+    auto job = s.next(t0 + 1ms);
+    ASSERT_TRUE(job);
+    EXPECT_TRUE(job->fallback);
+    (void)s.complete(*job, silent(), t0 + 1ms);
+    EXPECT_EQ(s.health(1), master::Health::Absent);
+}
+
 TEST_F(SchedulerTest, AbsentDrivesAreProbedWithDoublingBackOff) {
     config.absent_backoff_min = 1s;
     config.absent_backoff_max = 4s;
