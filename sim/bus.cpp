@@ -165,7 +165,8 @@ TxPlan Bus::plan_reply(const rtu::Adu& reply, const DriveFaults& faults, rtu::In
     const rtu::Duration c = options_.pace ? options_.timing.character : rtu::Duration{0};
     const rtu::Duration real_c = options_.timing.character;
     TxPlan plan;
-    rtu::Instant t = start;
+    const std::uint8_t address = reply.bytes()[0];
+    rtu::Instant t = std::max(start, reply_end_[address] + options_.timing.t3_5);
 
     if (faults.noise > 0) {
         ++counters_.noise;
@@ -194,6 +195,7 @@ TxPlan Bus::plan_reply(const rtu::Adu& reply, const DriveFaults& faults, rtu::In
         plan.push_back({t, bytes[i]});
     }
     plan.back().reply_end = true;
+    reply_end_[address] = plan.back().at;
     plan.back().address = bytes[0];
     plan.back().function = bytes[1];
     ++counters_.replies;

@@ -2,6 +2,7 @@
 // the master. Pure: the event loop feeds it frames and writes what it plans.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -75,6 +76,9 @@ private:
     std::map<rtu::SlaveAddress, std::unique_ptr<ProfileDrive>> drives_;
     FaultTable faults_;
     FaultCounters counters_;
+    // When each drive's last planned reply ends: a drive has one transmitter, so it answers its
+    // requests one at a time and in order, however late.
+    std::array<rtu::Instant, 256> reply_end_{};
     std::mt19937 rng_;
     std::vector<double> silences_us_;
     std::uint64_t short_silences_ = 0;
