@@ -29,6 +29,12 @@ BusEngine::BusEngine(const config::BusConfig& bus, rtu::CharacterTiming timing, 
                bus.late_reply_guard.value_or(bus.response_timeout), timing.t3_5} {
     status_.name = bus.name;
     framer_.set_delivery_allowance(bus.delivery_allowance);
+    for (std::size_t d = 0; d < bus.drives.size(); ++d) {
+        probes_.push_back(sync_probes(*bus.drives[d].profile, scheduler_.limits(d)));
+    }
+    // Ten attempts' worth of waiting, and at least 2 s: a reply later than that is not guarded.
+    forget_ =
+        std::max<rtu::Duration>(std::chrono::seconds(2), 10 * (options_.response_timeout + options_.late_reply_guard));
 }
 
 void BusEngine::line_up(rtu::Instant now) {
@@ -52,6 +58,14 @@ void BusEngine::line_down(rtu::Instant now) {
     if (transaction_) {
         transaction_->abort(now);
         finish_if_done(now);
+    }
+    if (after_probe_) {
+        Result down;
+        down.outcome = Outcome::BusDown;
+        down.finished = now;
+        const Job job = std::move(*after_probe_);
+        after_probe_.reset();
+        complete(job, down, now);
     }
     transmitting_ = false;
     scheduler_.line_down(now);
@@ -158,8 +172,15 @@ void BusEngine::take_events(rtu::Instant now) {
 }
 
 void BusEngine::on_frame(const rtu::Frame& frame) {
-    const auto verdict = transaction_ ? transaction_->on_frame(frame) : Transaction::Verdict::Ignored;
     const rtu::SlaveAddress from = frame.adu.empty() ? 0 : frame.adu[0];
+    if (!frame.adu.empty() &&
+        ledger_.received(from, frame.adu.bytes(), transaction_ ? serial_ : 0) == ReplyLedger::Match::Earlier) {
+        // It can be the reply to an earlier transaction's attempt, so it is never taken for this
+        // one's, whatever its timing.
+        count_late(from, frame.first - last_tx_end_.value_or(frame.first));
+        return;
+    }
+    const auto verdict = transaction_ ? transaction_->on_frame(frame) : Transaction::Verdict::Ignored;
     switch (verdict) {
     case Transaction::Verdict::Reply:
         ++status_.counters.replies;
@@ -168,9 +189,7 @@ void BusEngine::on_frame(const rtu::Frame& frame) {
         }
         return;
     case Transaction::Verdict::Malformed: ++status_.counters.malformed; return;
-    case Transaction::Verdict::Late:
-        count_late(from, frame.first - last_tx_end_.value_or(frame.first));
-        return;
+    case Transaction::Verdict::Late: count_late(from, frame.first - last_tx_end_.value_or(frame.first)); return;
     case Transaction::Verdict::Foreign:
     case Transaction::Verdict::Ignored: break;
     }
@@ -211,9 +230,14 @@ void BusEngine::finish_if_done(rtu::Instant now) {
     transaction_.reset();
     job_.reset();
     framer_.expect_requests();
+    if (probing_) {
+        finish_probe(result, now);
+        return;
+    }
     // A timed-out attempt's reply may still be on its way, and the next request to the slave
     // could look the same: stay quiet for as long as the slave has been seen to answer late.
-    const bool timed_out = result.after_timeout || result.outcome == Outcome::Timeout || result.outcome == Outcome::Late;
+    const bool timed_out =
+        result.after_timeout || result.outcome == Outcome::Timeout || result.outcome == Outcome::Late;
     const rtu::SlaveAddress address = job.request.address;
     if (result.after_timeout && (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception)) {
         // The reply taken may have been a timed-out attempt's, come later than the time-out and
@@ -231,6 +255,25 @@ void BusEngine::finish_if_done(rtu::Instant now) {
             quiet_until_ = *last_tx_end_ + horizon_[address];
         }
     }
+    complete(job, result, now);
+}
+
+// A sync probe answered: the slave has answered or dropped every request before it, and the
+// job it went ahead of is sent next. Not answered: that job ends as the probe did, unsent (the
+// slave does not answer, or answers so late that its reply could still be taken for another).
+void BusEngine::finish_probe(const Result& probe, rtu::Instant now) {
+    probing_ = false;
+    if (probe.outcome == Outcome::Ok || probe.outcome == Outcome::Exception || !after_probe_) {
+        return;
+    }
+    const Job job = std::move(*after_probe_);
+    after_probe_.reset();
+    Result failed = probe;
+    failed.response.reset();
+    complete(job, failed, now);
+}
+
+void BusEngine::complete(const Job& job, const Result& result, rtu::Instant now) {
     if (result.outcome == Outcome::Ok || result.outcome == Outcome::Exception) {
         if (job.request.address != rtu::kBroadcastAddress) {
             status_.reply_latency.add(result.latency);
@@ -262,7 +305,7 @@ std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now, std::size_t in
         return std::nullopt;
     }
     if (!transaction_) {
-        auto job = scheduler_.next(now, !echo_.decided());
+        auto job = next_job(now);
         if (!job) {
             return std::nullopt;
         }
@@ -285,6 +328,7 @@ std::optional<rtu::Adu> BusEngine::transmission(rtu::Instant now, std::size_t in
             options.retries = *job->retries;
         }
         transaction_.emplace(options, job->request, *adu);
+        ++serial_;
         job_ = std::move(*job);
     }
     if (transaction_->state() != Transaction::State::ReadyToSend) {
@@ -314,6 +358,7 @@ void BusEngine::written(rtu::Instant now) {
     if (transaction_->broadcast()) {
         ++status_.counters.broadcasts;
     } else {
+        ledger_.sent(transaction_->request().address, serial_, transaction_->request().pdu, now);
         framer_.expect_reply(transaction_->request());
         if (job_->drive != kNoDrive) {
             ++scheduler_.counters(job_->drive).requests;
@@ -344,10 +389,53 @@ std::optional<rtu::Instant> BusEngine::next_send_at() const {
         }
         return std::nullopt;
     }
+    if (after_probe_) {
+        return line_free_at();
+    }
     if (const auto due = scheduler_.next_due()) {
         return std::max(*due, line_free_at());
     }
     return std::nullopt;
+}
+
+std::optional<Job> BusEngine::next_job(rtu::Instant now) {
+    if (after_probe_) {
+        // Its probe was answered: nothing it could be confused with is owed any more.
+        std::optional<Job> job = std::move(after_probe_);
+        after_probe_.reset();
+        return job;
+    }
+    auto job = scheduler_.next(now, !echo_.decided());
+    if (!job) {
+        return std::nullopt;
+    }
+    const auto probe = probe_for(*job, now);
+    if (!probe) {
+        return job;
+    }
+    Job sync;
+    sync.kind = JobKind::Probe;
+    sync.drive = job->drive;
+    sync.request = {job->request.address, *probe};
+    sync.retries = job->retries;
+    after_probe_ = std::move(job);
+    probing_ = true;
+    ++status_.counters.sync_probes;
+    return sync;
+}
+
+std::optional<rtu::Request> BusEngine::probe_for(const Job& job, rtu::Instant now) {
+    const rtu::SlaveAddress address = job.request.address;
+    if (address == rtu::kBroadcastAddress) {
+        return std::nullopt;
+    }
+    ledger_.forget(address, now, std::max(forget_, 2 * horizon_[address]));
+    if (job.drive == kNoDrive || !ledger_.in_doubt(address, job.request.pdu)) {
+        return std::nullopt;
+    }
+    // None to be had: the job goes as it is. A reply that can be an earlier one's is still not
+    // taken for its (on_frame()), so it fails rather than take a wrong value.
+    return ledger_.choose_probe(address, probes_[job.drive], job.request.pdu);
 }
 
 std::optional<rtu::Instant> BusEngine::next_wakeup() const {

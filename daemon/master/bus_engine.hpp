@@ -13,9 +13,11 @@
 
 #include <functional>
 #include <optional>
+#include <vector>
 
 #include "config/config.hpp"
 #include "master/echo_filter.hpp"
+#include "master/reply_ledger.hpp"
 #include "master/scheduler.hpp"
 #include "master/snapshot.hpp"
 #include "master/transaction.hpp"
@@ -77,13 +79,17 @@ public:
     [[nodiscard]] rtu::Instant line_free_at() const noexcept;
     // How late a drive's replies have been seen to come, plus the guard: after a timed-out
     // attempt to it, the line stays quiet that long. Zero until it has answered late.
-    [[nodiscard]] rtu::Duration late_horizon(rtu::SlaveAddress address) const noexcept {
-        return horizon_[address];
-    }
+    [[nodiscard]] rtu::Duration late_horizon(rtu::SlaveAddress address) const noexcept { return horizon_[address]; }
 
 private:
     void take_events(rtu::Instant now);
     void finish_if_done(rtu::Instant now);
+    void finish_probe(const Result& probe, rtu::Instant now);
+    void complete(const Job& job, const Result& result, rtu::Instant now);
+    // The job to start now: the one a sync probe went ahead of, or the scheduler's next.
+    [[nodiscard]] std::optional<Job> next_job(rtu::Instant now);
+    // A sync probe to send ahead of `job`, if its reply could be confused with one still owed.
+    [[nodiscard]] std::optional<rtu::Request> probe_for(const Job& job, rtu::Instant now);
     void count_exception(std::optional<rtu::ExceptionCode> code, std::array<std::uint64_t, 12>& table);
     void on_frame(const rtu::Frame& frame);
     void count_late(rtu::SlaveAddress address, rtu::Duration latency);
@@ -107,6 +113,13 @@ private:
     rtu::SlaveAddress quiet_address_ = 0;
     bool quiet_after_transmission_ = false;  // the quiet time starts when the request on the wire has left it
     std::array<rtu::Duration, 256> horizon_{};
+    // Which reply can be whose (see master/reply_ledger.hpp).
+    ReplyLedger ledger_;
+    std::vector<std::vector<rtu::Request>> probes_;  // per drive: its sync probes
+    rtu::Duration forget_{};                         // owed replies later than this are forgotten
+    std::uint64_t serial_ = 0;                       // of the transaction in flight (0: none yet)
+    bool probing_ = false;                           // the transaction in flight is a sync probe
+    std::optional<Job> after_probe_;                 // the job the probe went ahead of
 };
 
 }  // namespace drivebus::master

@@ -131,6 +131,7 @@ struct BusCounters {
     std::uint64_t line_down = 0;  // times the device went away
     std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
     std::uint64_t held_replies = 0;  // replies whose delivery was held back and still completed
+    std::uint64_t sync_probes = 0;   // requests sent to prove a slave in step (master/reply_ledger.hpp)
     std::array<std::uint64_t, 12> exceptions{};
 };
 
@@ -139,7 +140,7 @@ struct BusCounters {
 #define DRIVEBUS_MASTER_BUS_COUNTERS(X)                                                                    \
     X(transmissions) X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows)      \
     X(noise) X(foreign) X(malformed) X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections)       \
-    X(line_down) X(late_replies) X(held_replies)
+    X(line_down) X(late_replies) X(held_replies) X(sync_probes)
 #define DRIVEBUS_MASTER_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) ==
                   sizeof(std::uint64_t) * (0 DRIVEBUS_MASTER_BUS_COUNTERS(DRIVEBUS_MASTER_COUNT_ONE)) +

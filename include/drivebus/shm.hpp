@@ -18,7 +18,7 @@
 
 namespace drivebus::shm {
 
-inline constexpr std::uint32_t kPayloadVersion = 3;
+inline constexpr std::uint32_t kPayloadVersion = 4;
 inline constexpr std::string_view kService = "drivebus";
 inline constexpr std::string_view kStatusEvent = "status";
 inline constexpr std::string_view kRequestEvent = "requests";
@@ -153,6 +153,7 @@ struct BusCounters {
     std::uint64_t lease_expiries = 0;
     std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
     std::uint64_t held_replies = 0;  // replies the kernel handed over late, still complete in time
+    std::uint64_t sync_probes = 0;   // requests sent to prove a slave in step after a reply went missing
 };
 
 // Every counter of BusCounters, in its order, for code that maps them by name (X(name) each):
@@ -160,7 +161,8 @@ struct BusCounters {
 #define DRIVEBUS_SHM_BUS_COUNTERS(X)                                                                       \
     X(transmissions) X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows)      \
     X(noise) X(foreign) X(malformed) X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections)       \
-    X(line_down) X(exceptions) X(requests_served) X(lease_expiries) X(late_replies) X(held_replies)
+    X(line_down) X(exceptions) X(requests_served) X(lease_expiries) X(late_replies) X(held_replies)   \
+    X(sync_probes)
 #define DRIVEBUS_SHM_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) == sizeof(std::uint64_t) * (0 DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_SHM_COUNT_ONE)),
               "DRIVEBUS_SHM_BUS_COUNTERS must list every field of shm::BusCounters");

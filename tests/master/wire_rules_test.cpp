@@ -304,6 +304,114 @@ TEST_F(WireRules, ALatenessGrowingPastTheGuardIsNeverTakenForTheNextReply) {
     expect_silences_kept();
 }
 
+// A drive that stalls answers its requests in order but later than any bound the master knows
+// (past the response time-out and the guard, from a drive never seen late): the replies to a
+// read it gave up on come in the next reads' waits, with the same shape. They are never taken
+// for those reads' values: the master sends a sync probe (FC43, whose reply cannot be confused
+// with an FC03 one) ahead of the next read, discards what can be an earlier read's reply, and
+// sends the read once the probe is answered.
+TEST_F(WireRules, AStalledDriveNeverGivesTheNextReadsTheValuesOfTheReadsBefore) {
+    config.drives.push_back(drive("pump", 1, atv21));
+    drives.add(sim::make_drive(1, atv21));
+    const std::map<std::uint16_t, std::uint16_t> values = known_pump_values();
+    start();
+    std::size_t asked = 0;
+    std::vector<master::Result> got;
+    const auto read = [&] {
+        const std::uint16_t reg = std::next(values.begin(), static_cast<std::ptrdiff_t>(asked % 4))->first;
+        results.clear();
+        ASSERT_TRUE(engine->submit({1, asked, {1, rtu::ReadHoldingRegisters{reg, 1}}, false}).has_value());
+        ASSERT_TRUE(line->run_until_true([&] { return !results.empty(); }, 60s));
+        const master::Result& r = results.front().second;
+        if (r.outcome == master::Outcome::Ok) {
+            EXPECT_EQ(std::get<rtu::ReadHoldingRegistersResponse>(*r.response).values.words()[0], values.at(reg))
+                << "read " << asked << " of register " << reg;
+        }
+        got.push_back(r);
+        ++asked;
+    };
+    for (int i = 0; i < 4; ++i) {
+        read();
+    }
+    EXPECT_EQ(engine->status().counters.sync_probes, 0U) << "in step: no probe";
+    // The stall: every attempt of one read answered 420 ms late, in order: past its time-out
+    // and guard (50 + 50 ms) and past the next read's first, into its second attempt's wait.
+    ASSERT_TRUE(drives.faults().apply(1, "late=420ms").has_value());
+    read();
+    EXPECT_EQ(got.back().outcome, master::Outcome::Timeout);
+    ASSERT_TRUE(drives.faults().apply(1, "late=0ms").has_value());
+    for (int i = 0; i < 12; ++i) {
+        read();
+    }
+    EXPECT_GT(engine->status().counters.sync_probes, 0U);
+    EXPECT_GT(engine->status().counters.late_replies, 0U) << "the stalled replies came, and were discarded";
+    // In step again: the last reads are answered at once.
+    for (std::size_t i = got.size() - 4; i < got.size(); ++i) {
+        EXPECT_EQ(got[i].outcome, master::Outcome::Ok) << "read " << i;
+        EXPECT_EQ(got[i].attempts, 1U) << "read " << i;
+    }
+    expect_silences_kept();
+}
+
+// Without retries, a reply 2.5 x the time-out late lands in the next request's wait every
+// time: the ledger knows it can be the earlier request's, so it is counted late, never taken.
+TEST_F(WireRules, WithoutRetriesALateReplyIsNeverTakenForTheNextRequest) {
+    config.response_timeout = 100ms;
+    config.retries = 0;
+    config.drives.push_back(drive("pump", 1, atv21));
+    drives.add(sim::make_drive(1, atv21));
+    const std::map<std::uint16_t, std::uint16_t> values = known_pump_values();
+    ASSERT_TRUE(drives.faults().apply(1, "late=250ms").has_value());
+    start();
+    std::size_t ok = 0;
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < 2000; ++i) {
+        const std::uint16_t reg = std::next(values.begin(), static_cast<std::ptrdiff_t>(i % 4))->first;
+        results.clear();
+        ASSERT_TRUE(engine->submit({1, i, {1, rtu::ReadHoldingRegisters{reg, 1}}, false}).has_value());
+        ASSERT_TRUE(line->run_until_true([&] { return !results.empty(); }, 60s));
+        const master::Result& r = results.front().second;
+        if (r.outcome == master::Outcome::Ok) {
+            ++ok;
+            wrong +=
+                std::get<rtu::ReadHoldingRegistersResponse>(*r.response).values.words()[0] != values.at(reg) ? 1U : 0U;
+        }
+    }
+    EXPECT_EQ(wrong, 0U) << "of " << ok << " values";
+    EXPECT_GT(engine->status().counters.late_replies, 0U);
+    expect_silences_kept();
+}
+
+// A request the drive never got (noise on the line) leaves an attempt owed that will never be
+// answered: one sync probe settles it, and the next read costs no time-out.
+TEST_F(WireRules, ARequestTheDriveNeverGotCostsOneSyncProbe) {
+    config.drives.push_back(drive("pump", 1, atv21));
+    drives.add(sim::make_drive(1, atv21));
+    const std::map<std::uint16_t, std::uint16_t> values = known_pump_values();
+    start();
+    const auto read = [&](std::uint16_t reg) {
+        results.clear();
+        EXPECT_TRUE(engine->submit({1, reg, {1, rtu::ReadHoldingRegisters{reg, 1}}, false}).has_value());
+        EXPECT_TRUE(line->run_until_true([&] { return !results.empty(); }, 60s));
+        return results.empty() ? master::Result{} : results.front().second;
+    };
+    ASSERT_TRUE(drives.faults().apply(1, "drop=1").has_value());
+    EXPECT_EQ(read(0xFE35).outcome, master::Outcome::Timeout);
+    ASSERT_TRUE(drives.faults().apply(1, "drop=0").has_value());
+    const auto before = engine->status().counters;
+    const master::Result next = read(0xFE36);
+    ASSERT_EQ(next.outcome, master::Outcome::Ok);
+    EXPECT_EQ(std::get<rtu::ReadHoldingRegistersResponse>(*next.response).values.words()[0], values.at(0xFE36));
+    EXPECT_EQ(next.attempts, 1U);
+    const auto after = engine->status().counters;
+    EXPECT_EQ(after.sync_probes - before.sync_probes, 1U);
+    EXPECT_EQ(after.transmissions - before.transmissions, 2U) << "the probe and the read";
+    EXPECT_EQ(after.timeouts, before.timeouts);
+    // Settled: the read after it needs no probe.
+    EXPECT_EQ(read(0xFA50).attempts, 1U);
+    EXPECT_EQ(engine->status().counters.sync_probes, after.sync_probes);
+}
+
 INSTANTIATE_TEST_SUITE_P(OfTheTimeout, LateReplies, ::testing::Values(0.5, 0.9, 1.1, 1.5, 2.5),
                          [](const auto& p) { return "x" + std::to_string(static_cast<int>(p.param * 10)); });
 
