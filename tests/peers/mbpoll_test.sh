@@ -3,7 +3,7 @@
 # address 1 and an Altivar 58 at address 2, 19200 8N1. Run through sim_harness.sh, which
 # provides SIM_LINK (the tty) and SIM_CONTROL (the control socket, reached with socat).
 # Every case compares what mbpoll printed with the expected values; the exit status is the
-# 1 when a check failed, 77 when a tool is missing.
+# 1 when a check failed, 77 when a tool is missing (ctest counts that as a failure too).
 set -uo pipefail
 
 for tool in mbpoll socat; do

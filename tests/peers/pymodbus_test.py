@@ -5,7 +5,8 @@ An Altivar 21 at address 1 and an Altivar 58 at address 2, 19200 8N1. Run throug
 sim_harness.sh, which provides SIM_LINK (the tty) and SIM_CONTROL (the control socket).
 Written for pymodbus 3.0 (Debian python3-pymodbus): the client methods take the slave as
 `slave=`, while request objects built by hand (FC43/14) still take `unit=`.
-Exit status: 0 when every case passed, 1 when one failed, 77 when pymodbus is missing.
+Exit status: 0 when every case passed, 1 when one failed or pymodbus cannot be imported (scripts/setup
+installs it: a peer that is missing is a failure, never a skip).
 """
 
 import os
@@ -19,9 +20,9 @@ try:
     from pymodbus.mei_message import ReadDeviceInformationRequest, ReadDeviceInformationResponse
     from pymodbus.pdu import ExceptionResponse
 except ImportError as e:
-    print(f"pymodbus_test: SKIP: pymodbus is not installed for {sys.executable} ({e}); "
-          "scripts/setup installs python3-pymodbus and python3-serial")
-    sys.exit(77)
+    print(f"pymodbus_test: FAIL: pymodbus cannot be imported by {sys.executable} ({e}); "
+          "scripts/setup installs python3-pymodbus, python3-serial and python3-serial-asyncio")
+    sys.exit(1)
 
 ATV21 = 1
 ATV58 = 2
