@@ -430,12 +430,19 @@ std::optional<rtu::Request> BusEngine::probe_for(const Job& job, rtu::Instant no
         return std::nullopt;
     }
     ledger_.forget(address, now, std::max(forget_, 2 * horizon_[address]));
-    if (job.drive == kNoDrive || !ledger_.in_doubt(address, job.request.pdu)) {
+    if (!ledger_.in_doubt(address, job.request.pdu)) {
         return std::nullopt;
     }
-    // None to be had: the job goes as it is. A reply that can be an earlier one's is still not
-    // taken for its (on_frame()), so it fails rather than take a wrong value.
-    return ledger_.choose_probe(address, probes_[job.drive], job.request.pdu);
+    auto probe =
+        job.drive == kNoDrive ? std::nullopt : ledger_.choose_probe(address, probes_[job.drive], job.request.pdu);
+    if (!probe) {
+        // No request of another shape to prove the slave in step: held to the owed attempts,
+        // every reply to this job would be taken for an older one's, and every job after it
+        // would pay a time-out. The slave is guarded by waiting alone (the quiet time), as
+        // docs/drivebusd.md says.
+        ledger_.clear(address);
+    }
+    return probe;
 }
 
 std::optional<rtu::Instant> BusEngine::next_wakeup() const {

@@ -63,6 +63,8 @@ public:
     Match received(rtu::SlaveAddress address, std::span<const std::uint8_t> adu, std::uint64_t transaction);
     // Drops what is older than `forget` at `now`.
     void forget(rtu::SlaveAddress address, rtu::Instant now, rtu::Duration forget);
+    // Drops everything owed by `address`.
+    void clear(rtu::SlaveAddress address) noexcept { slaves_[address].clear(); }
     // Whether a reply to `request` could still be taken for one owed by `address`.
     [[nodiscard]] bool in_doubt(rtu::SlaveAddress address, const rtu::Request& request) const noexcept;
     // The first of `probes` whose reply can be confused neither with an owed one nor with

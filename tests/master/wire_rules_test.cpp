@@ -412,6 +412,32 @@ TEST_F(WireRules, ARequestTheDriveNeverGotCostsOneSyncProbe) {
     EXPECT_EQ(engine->status().counters.sync_probes, after.sync_probes);
 }
 
+// A slave with no sync probe to be had (a profile with no register and no FC43) is guarded by
+// waiting alone: after a request it never got, the next ones cost no time-out (held to the
+// owed attempt, each reply would be taken for an older one's, and each read would pay one).
+TEST_F(WireRules, ASlaveWithNoProbePaysNoTimeOutsForARequestItNeverGot) {
+    auto meter = std::make_shared<Profile>(*load("generic"));
+    ASSERT_TRUE(meter->registers.empty());
+    config.drives.push_back(drive("meter", 5, meter));
+    drives.add(sim::make_drive(5, meter));
+    start();
+    const auto read = [&] {
+        results.clear();
+        EXPECT_TRUE(engine->submit({1, 1, {5, rtu::ReadHoldingRegisters{0, 1}}, false}).has_value());
+        EXPECT_TRUE(line->run_until_true([&] { return !results.empty(); }, 60s));
+        return results.empty() ? master::Result{} : results.front().second;
+    };
+    ASSERT_TRUE(drives.faults().apply(5, "drop=1").has_value());
+    EXPECT_EQ(read().outcome, master::Outcome::Timeout);
+    ASSERT_TRUE(drives.faults().apply(5, "drop=0").has_value());
+    for (int i = 0; i < 4; ++i) {
+        const master::Result r = read();  // no register: answered with an exception
+        EXPECT_EQ(r.outcome, master::Outcome::Exception) << "read " << i;
+        EXPECT_EQ(r.attempts, 1U) << "read " << i;
+    }
+    EXPECT_EQ(engine->status().counters.sync_probes, 0U);
+}
+
 INSTANTIATE_TEST_SUITE_P(OfTheTimeout, LateReplies, ::testing::Values(0.5, 0.9, 1.1, 1.5, 2.5),
                          [](const auto& p) { return "x" + std::to_string(static_cast<int>(p.param * 10)); });
 
