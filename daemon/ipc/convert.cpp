@@ -32,6 +32,7 @@ shm::DriveHealth to_shm(master::Health health) noexcept {
     switch (health) {
     case master::Health::Online: return shm::DriveHealth::Online;
     case master::Health::Absent: return shm::DriveHealth::Absent;
+    case master::Health::Unconfigured: return shm::DriveHealth::Unconfigured;
     case master::Health::Unknown: break;
     }
     return shm::DriveHealth::Unknown;

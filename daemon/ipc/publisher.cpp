@@ -122,6 +122,10 @@ void Publisher::log_health(std::size_t drive, master::Health before, master::Hea
                           fmt::format("bus {} drive {} (address {}): absent, no reply after every retry; probing "
                                       "with back-off",
                                       bus_.name, d.name, d.address));
+    } else if (now == master::Health::Unconfigured && before != master::Health::Unconfigured) {
+        log::error(fmt::format("bus {} drive {}: its set-up (the selectors of its indirect blocks) failed or did not "
+                               "read back as written; not polled, set up again with back-off",
+                               bus_.name, d.name));
     } else if (now == master::Health::Online && before == master::Health::Absent) {
         log::notice(fmt::format("bus {} drive {}: answering again", bus_.name, d.name));
     }

@@ -63,7 +63,7 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
         if (auto job = next_fallback()) {
             return job;
         }
-        if (auto job = next_setup()) {
+        if (auto job = next_setup(now)) {
             return job;
         }
         if (auto job = take_client({&writes_})) {
@@ -109,22 +109,44 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
     return std::nullopt;
 }
 
-std::optional<Job> Scheduler::next_setup() {
+std::optional<Job> Scheduler::next_setup(rtu::Instant now) {
     for (std::size_t d = 0; d < drives_.size(); ++d) {
         Drive& drive = drives_[d];
-        if (drive.setup_done || drive.health == Health::Absent || drive.setup_cursor >= drive.setup.size()) {
+        if (drive.setup_done || drive.health == Health::Absent || drive.setup_cursor >= 2 * drive.setup.size() ||
+            now < drive.setup_retry) {
             continue;
         }
-        const auto [address, value] = drive.setup[drive.setup_cursor];
+        // Each selector is written, then read back: the block is trusted only as the drive holds it.
+        const auto [address, value] = drive.setup[drive.setup_cursor / 2];
         Job job;
         job.kind = JobKind::Setup;
         job.drive = d;
         job.chunk = drive.setup_cursor;
-        job.request = {drive.config->address, rtu::WriteSingleRegister{address, value}};
+        if (drive.setup_cursor % 2 == 0) {
+            job.request = {drive.config->address, rtu::WriteSingleRegister{address, value}};
+        } else {
+            job.request = {drive.config->address, rtu::ReadHoldingRegisters{address, 1}};
+        }
         ++drive.setup_cursor;
         return job;
     }
     return std::nullopt;
+}
+
+void Scheduler::setup_failed(std::size_t drive, rtu::Instant now) {
+    Drive& d = drives_[drive];
+    d.health = Health::Unconfigured;
+    d.setup_done = false;
+    d.setup_cursor = 0;
+    d.setup_backoff =
+        d.setup_backoff.count() == 0 ? bus_.absent_backoff_min : std::min(d.setup_backoff * 2, bus_.absent_backoff_max);
+    d.setup_retry = now + d.setup_backoff;
+    for (RegisterEntry& e : d.values) {
+        e.value.valid = false;
+    }
+    for (Group& g : d.groups) {
+        g.cursor.reset();
+    }
 }
 
 Job Scheduler::read_job(JobKind kind, std::size_t drive, std::size_t group, std::size_t chunk) const {
@@ -229,7 +251,8 @@ std::optional<rtu::Instant> Scheduler::next_due() const {
     }
     for (const Drive& drive : drives_) {
         if (!drive.setup_done && drive.health != Health::Absent) {
-            return rtu::Instant::min();
+            consider(drive.setup_retry);  // at once, or when a failed set-up is tried again
+            continue;
         }
         if (drive.health == Health::Absent) {
             consider(drive.next_probe);
@@ -280,8 +303,30 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
         return was_absent ? std::nullopt : std::optional<std::size_t>(job.drive);
     }
 
-    if (job.kind == JobKind::Setup && drive.setup_cursor >= drive.setup.size()) {
-        drive.setup_done = true;
+    if (job.kind == JobKind::Setup && result.outcome == Outcome::BusDown) {
+        drive.setup_cursor = 0;  // the line went down: set up again from the start once it is back
+        return std::nullopt;
+    }
+    if (job.kind == JobKind::Setup) {
+        const std::size_t step = job.chunk;
+        const auto expected = drive.setup[std::min(step / 2, drive.setup.size() - 1)].second;
+        const auto* read =
+            result.response ? std::get_if<rtu::ReadHoldingRegistersResponse>(&*result.response) : nullptr;
+        const bool held = step % 2 == 0 ? result.outcome == Outcome::Ok
+                                        : read != nullptr && read->values.size() == 1 && read->values[0] == expected;
+        if (!held) {
+            const bool was = drive.health == Health::Unconfigured;
+            setup_failed(job.drive, now);
+            return was ? std::nullopt : std::optional<std::size_t>(job.drive);
+        }
+        if (drive.setup_cursor >= 2 * drive.setup.size()) {
+            drive.setup_done = true;
+            drive.setup_backoff = {};
+            if (drive.health == Health::Unconfigured) {
+                drive.health = Health::Online;
+                return job.drive;
+            }
+        }
     }
     if (job.kind != JobKind::Poll || job.group >= drive.groups.size()) {
         return std::nullopt;
@@ -303,6 +348,9 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
 void Scheduler::mark_present(std::size_t drive, rtu::Instant now) {
     Drive& d = drives_[drive];
     d.last_contact = now;
+    if (d.health == Health::Unconfigured) {
+        return;  // online once its set-up holds
+    }
     if (d.health != Health::Online) {
         const bool was_absent = d.health == Health::Absent;
         d.health = Health::Online;

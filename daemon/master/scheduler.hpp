@@ -104,8 +104,10 @@ private:
         rtu::FunctionLimits limits;
         std::vector<Group> groups;
         std::vector<std::pair<std::uint16_t, std::uint16_t>> setup;  // selector writes for the indirect block
-        std::size_t setup_cursor = 0;
+        std::size_t setup_cursor = 0;  // step: 2 i writes selector i, 2 i + 1 reads it back
         bool setup_done = true;
+        rtu::Instant setup_retry{};  // a failed set-up starts again no sooner
+        rtu::Duration setup_backoff{};
         Health health = Health::Unknown;
         rtu::Instant last_contact{};
         rtu::Duration backoff{};
@@ -120,7 +122,9 @@ private:
     [[nodiscard]] std::optional<Job> take_client(
         std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order);
     [[nodiscard]] std::optional<Job> next_fallback();
-    [[nodiscard]] std::optional<Job> next_setup();
+    [[nodiscard]] std::optional<Job> next_setup(rtu::Instant now);
+    // A set-up step failed: the drive is unconfigured until a set-up succeeds.
+    void setup_failed(std::size_t drive, rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_keep_alive(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_probe(rtu::Instant now);

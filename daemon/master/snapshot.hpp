@@ -13,7 +13,9 @@
 
 namespace drivebus::master {
 
-enum class Health : std::uint8_t { Unknown, Online, Absent };
+// Unconfigured: it answers, but its set-up (the selectors of its indirect blocks) failed or did
+// not read back as written: not polled, values invalid, set up again with back-off.
+enum class Health : std::uint8_t { Unknown, Online, Absent, Unconfigured };
 
 struct RegisterValue {
     std::uint16_t value = 0;

@@ -55,6 +55,7 @@ enum class DriveHealth : std::uint8_t {
     Unknown = 0,  // not polled yet
     Online = 1,
     Absent = 2,   // stopped answering; probed with back-off
+    Unconfigured = 3,  // answers, but its set-up failed or did not read back: not polled, retried
 };
 
 enum class Fallback : std::uint8_t { Hold = 0, Stop = 1, Freewheel = 2 };
@@ -330,6 +331,7 @@ template <typename T>
         case DriveHealth::Unknown: return "unknown";
         case DriveHealth::Online: return "online";
         case DriveHealth::Absent: return "absent";
+        case DriveHealth::Unconfigured: return "unconfigured";
     }
     return "unknown";
 }

@@ -165,19 +165,48 @@ TEST_F(EngineTest, IndirectBlockIsSetUpThenReadInOneTransaction) {
     start();
     line->run_for(500ms);
     const auto& sent = line->transmissions();
-    ASSERT_GE(sent.size(), 6U);
-    // F875-F879 are written first with the choices for FD00, FD01, FE03, FE05, FC91.
+    ASSERT_GE(sent.size(), 11U);
+    // F875-F879 are written first with the choices for FD00, FD01, FE03, FE05, FC91, each read
+    // back after its write.
     const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
     for (std::size_t i = 0; i < 5; ++i) {
-        EXPECT_EQ(sent[i].adu[1], 0x06);
+        EXPECT_EQ(sent[2 * i].adu[1], 0x06);
+        EXPECT_EQ(sent[2 * i + 1].adu[1], 0x03);
+        EXPECT_EQ(sent[2 * i + 1].adu[3], sent[2 * i].adu[3]) << "the selector just written is read back";
         EXPECT_EQ(drives.drive(1)->peek("F87" + std::to_string(5 + i)).value(), choices[i]);
     }
-    EXPECT_EQ(sent[5].adu[1], 0x03);
-    EXPECT_EQ(sent[5].adu[2], 0x18);
-    EXPECT_EQ(sent[5].adu[3], 0x75);
+    EXPECT_EQ(sent[10].adu[1], 0x03);
+    EXPECT_EQ(sent[10].adu[2], 0x18);
+    EXPECT_EQ(sent[10].adu[3], 0x75);
     const auto& pump = last("pump");
+    EXPECT_EQ(pump.health, master::Health::Online);
     EXPECT_EQ(pump.registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
     EXPECT_TRUE(pump.registers.at(0xFC91).valid);
+}
+
+// A set-up write the drive refuses leaves it unconfigured: published as such, not polled (its
+// block would return what the old selectors choose), and set up again with back-off until the
+// write holds.
+TEST_F(EngineTest, ADriveWhoseSetUpFailsIsUnconfiguredUntilItHolds) {
+    add_pump(true);
+    ASSERT_TRUE(drives.faults().apply(1, "exception=4").has_value());
+    start();
+    line->run_for(500ms);
+    ASSERT_FALSE(snapshots.empty());
+    const auto& failed = last("pump");
+    EXPECT_EQ(failed.health, master::Health::Unconfigured);
+    for (const auto& [address, v] : failed.registers) {
+        EXPECT_FALSE(v.valid) << "register " << address;
+    }
+    for (const auto& t : line->transmissions()) {
+        EXPECT_FALSE(t.adu[1] == 0x03 && t.adu[2] == 0x18) << "the block was read before its set-up held";
+    }
+    drives.faults().clear(std::nullopt);
+    line->run_for(3s);
+    const auto& pump = last("pump");
+    EXPECT_EQ(pump.health, master::Health::Online);
+    EXPECT_TRUE(pump.registers.at(0xFC91).valid);
+    EXPECT_EQ(pump.registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
 }
 
 TEST_F(EngineTest, CorruptedRepliesAreNeverAccepted) {
