@@ -246,7 +246,8 @@ public:
             << " setup_writes=" << tally_.setup_writes << " | fault_switches=" << tally_.fault_switches
             << " transmissions=" << c.transmissions << " retries=" << c.retries << " timeouts=" << c.timeouts
             << " late_replies=" << c.late_replies << " crc_errors=" << c.crc_errors << " gap_errors=" << c.gap_errors
-            << " noise=" << c.noise << " held_replies=" << c.held_replies << " foreign=" << c.foreign
+            << " noise=" << c.noise << " held_replies=" << c.held_replies << " sync_probes=" << c.sync_probes
+            << " foreign=" << c.foreign
             << " line_seconds=" << std::chrono::duration<double>(line_->now() - kStart).count();
         return out.str();
     }
