@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Packaging: the install rules of what has no CMakeLists.txt of its own (man pages, examples,
 # documents, the default configuration), and the .deb (CPack, generator DEB only).
 #
@@ -29,6 +30,8 @@ endforeach()
 file(GLOB docs ${PROJECT_SOURCE_DIR}/docs/*.md)
 list(REMOVE_ITEM docs ${PROJECT_SOURCE_DIR}/docs/deployment.md)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${docs} DESTINATION ${CMAKE_INSTALL_DOCDIR})
+# The licence, where Debian looks for it (DEP-5, machine-readable).
+install(FILES ${PROJECT_SOURCE_DIR}/cmake/copyright DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(FILES ${PROJECT_SOURCE_DIR}/examples/atv21-atv58.toml ${PROJECT_SOURCE_DIR}/examples/gpio.toml
               ${PROJECT_SOURCE_DIR}/examples/sim.toml
         DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples)
