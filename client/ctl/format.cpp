@@ -117,9 +117,11 @@ int exit_code(ErrorKind kind) noexcept {
     case ErrorKind::NotRunning:
     case ErrorKind::NoSuchBus:
     case ErrorKind::BusDown:
-    case ErrorKind::DaemonGone:
-    case ErrorKind::NoReply: return kExitUnavailable;
+    case ErrorKind::DaemonGone: return kExitUnavailable;
     case ErrorKind::QueueFull: return kExitQueueFull;
+    case ErrorKind::Withdrawn: return kExitWithdrawn;
+    case ErrorKind::NoReply:
+    case ErrorKind::OutcomeUnknown: return kExitUnknown;
     }
     return kExitDrive;
 }

@@ -21,6 +21,8 @@ inline constexpr int kExitRejected = 3;      // drivebusd's validation, unsuppor
 inline constexpr int kExitNotPermitted = 4;  // lease held by another client, not in the group
 inline constexpr int kExitUnavailable = 5;   // no drivebusd, no such bus, bus down, no reply
 inline constexpr int kExitQueueFull = 6;
+inline constexpr int kExitWithdrawn = 7;  // not answered in time, withdrawn: never sent
+inline constexpr int kExitUnknown = 8;    // not answered in time, already sent: outcome unknown
 
 [[nodiscard]] int exit_code(ErrorKind kind) noexcept;
 // The kind as JSON names it: "not_permitted".

@@ -5,7 +5,8 @@
 //     identify DRIVE | watch [--interval DURATION] | scan [--from A] [--to B] [--register R]
 //
 // Exit status: 0 ok, 1 the drive failed the request, 2 usage, 3 rejected or unsupported,
-// 4 not permitted, 5 drivebusd or the bus unavailable, 6 queue full.
+// 4 not permitted, 5 drivebusd or the bus unavailable, 6 queue full, 7 timed out and withdrawn
+// (never sent), 8 timed out after it was sent (outcome unknown).
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <string>

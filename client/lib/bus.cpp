@@ -149,6 +149,8 @@ std::string_view to_string(ErrorKind kind) noexcept {
     case ErrorKind::NoSuchBus: return "no such bus";
     case ErrorKind::DaemonGone: return "daemon gone";
     case ErrorKind::NoReply: return "no reply";
+    case ErrorKind::Withdrawn: return "withdrawn";
+    case ErrorKind::OutcomeUnknown: return "outcome unknown";
     case ErrorKind::InvalidArgument: return "invalid argument";
     case ErrorKind::Unsupported: return "unsupported";
     }
@@ -472,10 +474,35 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
         return std::unexpected(make_error(ErrorKind::DaemonGone, "drivebusd is not taking requests on bus '" + name +
                                                                      "' (has it stopped?)"));
     }
-    const bool answered = changed.wait_for(lock, options.request_timeout,
-                                           [&] { return waiting.at(request.correlation).has_value(); });
+    bool answered = changed.wait_for(lock, options.request_timeout,
+                                     [&] { return waiting.at(request.correlation).has_value(); });
+    if (!answered) {
+        // Given up: withdrawn if it has not reached the wire, and told which happened. The
+        // answer is the request's own result if it finished meanwhile.
+        lock.unlock();
+        shm::Request withdraw = request;
+        withdraw.kind = shm::RequestKind::Withdraw;
+        bool asked = false;
+        {
+            std::lock_guard client_lock(client_mutex);
+            auto loaned = client->loan(sizeof(shm::Request), alignof(shm::Request));
+            if (!loaned.has_error()) {
+                std::memcpy(loaned.value(), &withdraw, sizeof withdraw);
+                asked = !client->send(loaned.value()).has_error();
+            }
+        }
+        lock.lock();
+        if (asked) {
+            answered = changed.wait_for(lock, std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)),
+                                        [&] { return waiting.at(request.correlation).has_value(); });
+        }
+    }
     auto response = waiting.at(request.correlation);
     waiting.erase(request.correlation);
+    if (response && response->status == shm::Status::Rejected && response->reason == shm::RejectReason::NotPending) {
+        response.reset();  // drivebusd holds no such request: its answer was lost, or it never came
+        answered = false;
+    }
     if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
         // This request took a lease: its token from now on.
         lease_tokens[std::string(shm::view(request.drive))] = response->lease_token;
@@ -488,7 +515,8 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
                                                      std::to_string(options.daemon_silence.count()) + " ms)")
                                     : make_error(ErrorKind::NoReply, "drivebusd did not answer within " +
                                                                          std::to_string(options.request_timeout.count()) +
-                                                                         " ms"));
+                                                                         " ms, nor its withdrawal: the outcome is "
+                                                                         "unknown (read the register back)"));
     }
     return *response;
 }
@@ -646,6 +674,16 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
     case shm::Status::BusDown:
         e.kind = ErrorKind::BusDown;
         e.message = "the bus is down: its serial device is not open (see journalctl -u drivebusd)";
+        break;
+    case shm::Status::Withdrawn:
+        e.kind = ErrorKind::Withdrawn;
+        e.message = "drivebusd did not answer in time; the request to " + what +
+                    " was withdrawn before it reached the drive: nothing was sent";
+        break;
+    case shm::Status::Sent:
+        e.kind = ErrorKind::OutcomeUnknown;
+        e.message = "drivebusd did not answer in time; the request to " + what +
+                    " had already been sent: its outcome is unknown (read the register back)";
         break;
     case shm::Status::NotPermitted:
         e.kind = ErrorKind::NotPermitted;

@@ -14,6 +14,11 @@ Desk::Desk(const config::BusConfig& bus, Handover& handover)
 void Desk::take_requests() {
     master::ClientRequest request;
     while (handover_.requests.try_pop(request)) {
+        if (request.withdraw) {
+            handover_.put(refused(request.correlation,
+                                  engine_->withdraw(request.correlation) ? Refusal::Withdrawn : Refusal::NotWithdrawn));
+            continue;
+        }
         if (request.fallback) {
             take_fallback(request);
             continue;

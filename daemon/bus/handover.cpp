@@ -17,8 +17,10 @@ constexpr std::size_t kMinSnapshots = 16;
 }  // namespace
 
 Handover::Handover(std::size_t queue_limit, std::size_t drives)
-    : requests(queue_limit + drives),
-      results(queue_limit + drives),
+    // Each client request may be followed by its withdrawal, and each withdrawal answered apart
+    // from the request's own result: twice the limit, and a fallback per drive.
+    : requests(2 * queue_limit + drives),
+      results(2 * queue_limit + drives),
       snapshots(std::max(kMinSnapshots, kSnapshotsPerDrive * drives)),
       ready_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
     if (!ready_) {

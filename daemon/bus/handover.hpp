@@ -2,9 +2,11 @@
 // single-producer single-consumer rings with preallocated slots, plus an eventfd that wakes
 // the ipc side. Nothing here blocks the bus thread, allocates on it, or takes a lock.
 //
-//   ipc -> bus   requests    client requests, bounded by the intake's queue limit
-//   bus -> ipc   results     one entry per request taken: its outcome, or why it was refused.
-//                            Sized to the queue limit plus one fallback per drive, and every
+//   ipc -> bus   requests    client requests, bounded by the intake's queue limit, and at most
+//                            one withdrawal of each
+//   bus -> ipc   results     one entry per request taken: its outcome, or why it was refused,
+//                            and one per withdrawal that came too late (NotWithdrawn).
+//                            Sized to twice the queue limit plus one fallback per drive, and every
 //                            entry belongs to a request the ipc side still has in flight, so
 //                            it cannot overflow; if it ever did, the push is counted in
 //                            `results_lost` (a defect, logged by the ipc side).

@@ -354,7 +354,8 @@ std::expected<Admitted, Rejection> admit(const config::BusConfig& bus, const shm
     case shm::RequestKind::LeaseRenew:
     case shm::RequestKind::LeaseRelease: return Admitted{*drive, {}, false, true, {}};
     case shm::RequestKind::Broadcast:
-    case shm::RequestKind::Probe: break;
+    case shm::RequestKind::Probe:
+    case shm::RequestKind::Withdraw: break;  // the intake's own, never admitted to the bus
     }
     return reject(RejectReason::Malformed, fmt::format("unknown request kind {}", static_cast<int>(request.kind)));
 }

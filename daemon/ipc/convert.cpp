@@ -104,6 +104,8 @@ void fill_response(const bus::Finished& f, shm::Response& out) noexcept {
     case bus::Refusal::None: break;
     case bus::Refusal::QueueFull: out.status = shm::Status::QueueFull; return;
     case bus::Refusal::BusDown: out.status = shm::Status::BusDown; return;
+    case bus::Refusal::Withdrawn: out.status = shm::Status::Withdrawn; return;
+    case bus::Refusal::NotWithdrawn: out.status = shm::Status::Sent; return;
     case bus::Refusal::UnknownDrive:
         out.status = shm::Status::Rejected;
         out.reason = shm::RejectReason::UnknownDrive;

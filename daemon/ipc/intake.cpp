@@ -98,6 +98,9 @@ void Intake::answer(const bus::Finished& f) {
     if (a && a->entry.route) {
         impl_->send(*a->entry.route, a->response);
     }
+    if (a && a->entry.withdrawal) {
+        impl_->send(*a->entry.withdrawal, a->response);
+    }
 }
 
 bool Intake::submit_own(std::size_t drive, const rtu::RequestAdu& write) {

@@ -35,6 +35,9 @@ public:
         Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
         who.token = request.lease_token;
         who.pid = request.pid;
+        if (request.kind == shm::RequestKind::Withdraw && shm::compatible(request)) {
+            return withdraw(who, route);
+        }
         auto admitted = admit(bus_, request);
         if (!admitted) {
             log::info(fmt::format("bus {}: request from {} rejected: {}", bus_.name, who.client_name,
@@ -87,12 +90,24 @@ public:
     }
 
     struct Answer {
-        typename PendingBook<Route>::Entry entry;
+        typename PendingBook<Route>::Entry entry;  // its routes: where the response goes
         shm::Response response;
     };
-    // The bus answered: the entry leaves the book. A fallback's outcome goes to the lease
-    // policy (its entry has no route). Nullopt for an id not booked.
+    // The bus answered: the entry leaves the book, and the response goes to its route and to
+    // its withdrawal's, if any (the request finished first: the withdrawal learns its result).
+    // A fallback's outcome goes to the lease policy (its entry has no route). A withdrawal that
+    // came too late is answered Sent, and the entry stays for the request's own result.
+    // Nullopt for an id not booked.
     std::optional<Answer> finish(const bus::Finished& f) {
+        if (f.refusal == bus::Refusal::NotWithdrawn) {
+            auto* e = book_.entry(f.id);
+            if (e == nullptr || !e->withdrawal) {
+                return std::nullopt;  // it finished meanwhile: its result answered the withdrawal
+            }
+            Answer a{{e->origin, std::nullopt, std::exchange(e->withdrawal, std::nullopt)}, response_shell(e->origin)};
+            a.response.status = shm::Status::Sent;
+            return a;
+        }
         auto entry = book_.finish(f.id);
         if (!entry) {
             return std::nullopt;
@@ -115,6 +130,25 @@ public:
     [[nodiscard]] std::uint64_t queue_full() const noexcept { return queue_full_; }
 
 private:
+    // A Withdraw: the request it names goes to the bus for withdrawal, and the answer waits for
+    // the bus's word; a request not in the book is answered NotPending at once.
+    std::optional<shm::Response> withdraw(const Origin& who, Route& route) {
+        const auto id = book_.find(who.client, who.correlation);
+        auto* e = id ? book_.entry(*id) : nullptr;
+        if (e == nullptr || e->withdrawal) {
+            return answer(who, shm::Status::Rejected, shm::RejectReason::NotPending);
+        }
+        master::ClientRequest order;
+        order.client = who.client;
+        order.correlation = *id;
+        order.withdraw = true;
+        if (!submit_(order)) {
+            return answer(who, shm::Status::Sent);  // cannot tell: said as the worse case
+        }
+        e->withdrawal = std::move(route);
+        return std::nullopt;
+    }
+
     static shm::Response response_shell(const Origin& who) {
         shm::Response r{};
         r.size = sizeof r;

@@ -37,7 +37,8 @@ class PendingBook {
 public:
     struct Entry {
         Origin origin;
-        std::optional<Route> route;  // empty for drivebusd's own requests
+        std::optional<Route> route;       // empty for drivebusd's own requests
+        std::optional<Route> withdrawal;  // the client's Withdraw of it, waiting for the bus's word
     };
 
     explicit PendingBook(std::size_t limit) : limit_(limit) {}
@@ -49,13 +50,13 @@ public:
             return std::nullopt;
         }
         ++clients_;
-        return add(Entry{std::move(origin), std::move(route)});
+        return add(Entry{std::move(origin), std::move(route), std::nullopt});
     }
     // drivebusd's own (a lease fallback): outside the clients' limit; the bus sizes its rings
     // for one per drive.
     std::uint64_t book_own(Origin origin) {
         origin.fallback = true;
-        return add(Entry{std::move(origin), std::nullopt});
+        return add(Entry{std::move(origin), std::nullopt, std::nullopt});
     }
     // The bus answered `id`: the entry leaves the book. Nullopt for an id not booked.
     std::optional<Entry> finish(std::uint64_t id) {
@@ -69,6 +70,20 @@ public:
             --clients_;
         }
         return e;
+    }
+
+    // The entry of a client's request, by the client's own id and correlation.
+    [[nodiscard]] std::optional<std::uint64_t> find(std::uint64_t client, std::uint64_t correlation) const {
+        for (const auto& [id, e] : entries_) {
+            if (!e.origin.fallback && e.origin.client == client && e.origin.correlation == correlation) {
+                return id;
+            }
+        }
+        return std::nullopt;
+    }
+    [[nodiscard]] Entry* entry(std::uint64_t id) {
+        const auto it = entries_.find(id);
+        return it == entries_.end() ? nullptr : &it->second;
     }
 
     [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }

@@ -462,6 +462,14 @@ std::optional<rtu::Instant> BusEngine::next_wakeup() const {
     return wake;
 }
 
+bool BusEngine::withdraw(std::uint64_t correlation) {
+    if (after_probe_ && after_probe_->kind == JobKind::Client && after_probe_->correlation == correlation) {
+        after_probe_.reset();  // its probe goes on: it proves the drive in step all the same
+        return true;
+    }
+    return scheduler_.withdraw(correlation);
+}
+
 std::expected<void, SubmitError> BusEngine::submit(ClientRequest request) {
     auto ok = scheduler_.submit(std::move(request));
     if (!ok && ok.error() == SubmitError::QueueFull) {

@@ -68,6 +68,9 @@ public:
     }
 
     // ---- clients ----
+    // Withdraws the waiting client request `correlation`: false when it has reached the wire
+    // (or finished, or is unknown). One held behind a sync probe has not.
+    bool withdraw(std::uint64_t correlation);
     std::expected<void, SubmitError> submit(ClientRequest request);
 
     [[nodiscard]] const BusStatus& status() const noexcept { return status_; }

@@ -79,6 +79,25 @@ std::optional<Job> Scheduler::next_fallback() {
     return std::nullopt;
 }
 
+bool Scheduler::withdraw(std::uint64_t correlation) {
+    for (auto* queues : {&writes_, &reads_}) {
+        for (auto it = queues->begin(); it != queues->end(); ++it) {
+            auto& queue = it->second;
+            const auto job = std::ranges::find(queue, correlation, &Job::correlation);
+            if (job == queue.end()) {
+                continue;
+            }
+            queue.erase(job);
+            if (queue.empty()) {
+                queues->erase(it);
+            }
+            --queued_;
+            return true;
+        }
+    }
+    return false;
+}
+
 std::vector<Job> Scheduler::take_client_jobs() {
     std::vector<Job> jobs;
     for (auto* queues : {&writes_, &reads_}) {

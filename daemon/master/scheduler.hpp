@@ -37,6 +37,8 @@ struct ClientRequest {
     // drivebusd's lease fallback: the drive's own slot, ahead of every client queue and
     // outside the queue limit (one per drive).
     bool fallback = false;
+    // Not a request: withdraws the one with this correlation if it is still waiting.
+    bool withdraw = false;
 };
 
 struct Job {
@@ -76,6 +78,9 @@ public:
     // Empties the client queues and returns what they held (the line went down: each waiting
     // request is answered now rather than sent whenever the line comes back).
     [[nodiscard]] std::vector<Job> take_client_jobs();
+    // Takes the waiting client request `correlation` out of its queue: false when it is not
+    // waiting (taken for the wire, finished, or never queued).
+    bool withdraw(std::uint64_t correlation);
 
     [[nodiscard]] std::size_t drive_count() const noexcept { return drives_.size(); }
     // Fills `out` without allocating (the bus thread calls it every poll cycle).

@@ -51,10 +51,17 @@ enum class ErrorKind : std::uint8_t {
     NotRunning,    // no drivebusd (no RouDi) to connect to
     NoSuchBus,     // drivebusd runs but does not announce that bus
     DaemonGone,    // drivebusd went silent after we connected
-    NoReply,       // drivebusd did not answer the request in time
+    // drivebusd answered neither the request in time nor its withdrawal: its outcome is
+    // unknown (a write may have been applied: read it back)
+    NoReply,
     InvalidArgument,  // bad input on this side: unknown register name, value too large
     Unsupported,   // the drive's profile does not define what was asked (a helper)
     LateReply,     // the drive answered, but only after the response time-out (Error::message says how late)
+    // Not answered in time, and withdrawn before it reached the wire: never sent (safe to retry).
+    Withdrawn,
+    // Not answered in time, and it had reached the wire when given up: its outcome is unknown
+    // (a write may have been applied: read it back).
+    OutcomeUnknown,
 };
 
 [[nodiscard]] DRIVEBUS_API std::string_view to_string(ErrorKind kind) noexcept;
@@ -72,7 +79,9 @@ struct Error {
 
 struct ConnectOptions {
     std::string application = "drivebus-client";  // shown in drivebusd's logs
-    // How long a request may take before NoReply (queueing and retries included).
+    // How long a request may take (queueing and retries included). Past it the request is
+    // withdrawn, and the error says which happened: Withdrawn (never sent), OutcomeUnknown
+    // (it had reached the wire), or the request's own result if it finished meanwhile.
     Milliseconds request_timeout{2000};
     // No bus status for this long: DaemonGone. drivebusd publishes at least once a second.
     Milliseconds daemon_silence{3000};

@@ -207,6 +207,10 @@ enum class RequestKind : std::uint8_t {
     LeaseRenew = 4,    // keeps the caller's control lease on the drive
     LeaseRelease = 5,  // gives it up: no fallback
     Probe = 6,         // FC03 of one word at `start` to `address`, configured or not: who answers?
+    // Gives up the caller's request with this `correlation` (and `client`): withdrawn if it
+    // has not reached the wire (answered Withdrawn, never sent), else answered Sent (its outcome
+    // is still to come) or, if it has just finished, with its result.
+    Withdraw = 7,
 };
 
 inline constexpr std::uint8_t kFlagTakeOver = 0x01;  // take the control lease from its holder
@@ -242,6 +246,8 @@ enum class Status : std::uint8_t {
     BusDown = 6,       // the line is not open
     NotPermitted = 7,  // another client holds the drive's control lease
     Late = 8,          // every attempt timed out and the drive answered after it: see `late_us`
+    Withdrawn = 9,     // withdrawn (RequestKind::Withdraw) before it reached the wire: never sent
+    Sent = 10,         // to a Withdraw: the request had reached the wire; its outcome is unknown
 };
 
 enum class RejectReason : std::uint8_t {
@@ -256,6 +262,7 @@ enum class RejectReason : std::uint8_t {
     Malformed = 8,         // wrong version or size, unknown kind
     DaemonOwned = 9,       // drivebusd owns the register: a selector of an indirect block, a set-up write
     BlockNotSetUp = 10,    // through an indirect block, or a slot of it, that drivebusd has not set up
+    NotPending = 11,       // a Withdraw of a request drivebusd does not hold: answered, or never received
 };
 
 struct Response {
@@ -307,6 +314,8 @@ template <typename T>
         case Status::BusDown: return "bus down";
         case Status::NotPermitted: return "not permitted";
         case Status::Late: return "late reply";
+        case Status::Withdrawn: return "withdrawn";
+        case Status::Sent: return "sent";
     }
     return "unknown";
 }
@@ -323,6 +332,7 @@ template <typename T>
         case RejectReason::Malformed: return "malformed request";
         case RejectReason::DaemonOwned: return "owned by drivebusd";
         case RejectReason::BlockNotSetUp: return "indirect block not set up by drivebusd";
+        case RejectReason::NotPending: return "no such request pending";
     }
     return "unknown";
 }

@@ -13,6 +13,7 @@
 #include <regex>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "mini_json.hpp"
 #include "stack.hpp"
@@ -221,6 +222,47 @@ TEST(CtlStack, AnExceptionFromTheDriveExitsOne) {
     // drivebusd gave it the lease before the bus said no: drivebusctl gives it back all the same.
     EXPECT_NE(r.err.find("drivebusctl: released the control lease of drive 'pump'"), std::string::npos) << describe(r);
     EXPECT_EQ(stack.sim_register(1, "FA01"), 0);
+}
+
+// ---- a request given up ----
+
+// `--timeout` shorter than the drive takes: drivebusctl withdraws the request and says which
+// happened. On the wire already, its outcome is unknown (exit 8, and the drive did get it);
+// queued behind another write, it was never sent (exit 7, and the drive never got it).
+TEST(CtlStack, ARequestGivenUpIsWithdrawnOrSaidToBeSentAndTheDriveAgrees) {
+    Stack stack(quiet());
+    // The drive answers 60 ms late, within the bus's 100 ms response time-out: a write is on
+    // the wire at once and its reply comes after drivebusctl's 20 ms.
+    // (On a loaded machine the withdrawal may reach drivebusd only once the write has finished:
+    // then drivebusctl is told its result, exit 0. Tried until exit 8 is seen, five times at most.)
+    ASSERT_EQ(stack.sim().command("fault 1 late=60ms").rfind("ok", 0), 0U);
+    bool unknown_seen = false;
+    for (int value = 551; value <= 555 && !unknown_seen; ++value) {
+        const auto sent = ctl(with_bus(stack, {"--timeout", "10ms", "write", "pump", "FA51", std::to_string(value)}));
+        ASSERT_TRUE(sent.status == 8 || sent.status == 0) << describe(sent);
+        if (sent.status == 8) {
+            unknown_seen = true;
+            expect_one_line_error(sent, "had already been sent: its outcome is unknown");
+        }
+        EXPECT_TRUE(wait_until([&] { return stack.sim_register(1, "FA51") == value; }, 10s))
+            << "it was sent, and applied";
+    }
+    EXPECT_TRUE(unknown_seen) << "five writes 60 ms long all finished within drivebusctl's 10 ms";
+
+    // The drive answers 900 ms late, past every attempt's time-out and guard: a write keeps the
+    // line for its four attempts and more, and one behind it waits.
+    ASSERT_EQ(stack.sim().command("fault 1 late=900ms").rfind("ok", 0), 0U);
+    const auto before = stack.sim_requests();
+    test::Run first;
+    {
+        std::jthread busy([&] { first = ctl(with_bus(stack, {"--timeout", "10s", "write", "pump", "FA51", "111"})); });
+        ASSERT_TRUE(wait_until([&] { return stack.sim_requests() > before; }, 10s)) << "the first write went out";
+        const auto queued = ctl(with_bus(stack, {"--timeout", "50ms", "write", "pump", "FA51", "777"}));
+        EXPECT_EQ(queued.status, 7) << describe(queued);
+        expect_one_line_error(queued, "was withdrawn before it reached the drive: nothing was sent");
+    }
+    EXPECT_NE(first.status, 7) << describe(first);
+    EXPECT_EQ(stack.sim_register(1, "FA51"), 111) << "the withdrawn 777 never reached the drive";
 }
 
 // ---- identify, scan ----

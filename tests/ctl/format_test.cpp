@@ -137,11 +137,14 @@ TEST(CtlFormat, ExitCodesByErrorKind) {
     EXPECT_EQ(exit_code(ErrorKind::Rejected), 3);
     EXPECT_EQ(exit_code(ErrorKind::Unsupported), 3);
     EXPECT_EQ(exit_code(ErrorKind::NotPermitted), 4);
-    for (const auto k : {ErrorKind::NotRunning, ErrorKind::NoSuchBus, ErrorKind::BusDown, ErrorKind::DaemonGone,
-                         ErrorKind::NoReply}) {
+    for (const auto k : {ErrorKind::NotRunning, ErrorKind::NoSuchBus, ErrorKind::BusDown, ErrorKind::DaemonGone}) {
         EXPECT_EQ(exit_code(k), 5) << to_string(k);
     }
     EXPECT_EQ(exit_code(ErrorKind::QueueFull), 6);
+    EXPECT_EQ(exit_code(ErrorKind::Withdrawn), 7);
+    EXPECT_EQ(exit_code(ErrorKind::OutcomeUnknown), 8);
+    EXPECT_EQ(exit_code(ErrorKind::NoReply), 8) << "answered neither the request nor its withdrawal: unknown";
+    EXPECT_EQ(kind_name(ErrorKind::OutcomeUnknown), "outcome_unknown");
     EXPECT_EQ(kind_name(ErrorKind::NotPermitted), "not_permitted");
     EXPECT_EQ(kind_name(ErrorKind::Rejected), "rejected");
 }

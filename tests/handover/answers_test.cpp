@@ -6,6 +6,8 @@
 #include <poll.h>
 
 #include <fstream>
+#include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -54,6 +56,7 @@ protected:
     std::unique_ptr<ipc::IntakeCore<Route>> intake;
     std::vector<unsigned> answers;  // per request
     std::map<shm::Status, std::size_t> statuses;
+    std::vector<shm::Status> last;  // each route's last answer
 
     void start(const std::filesystem::path& device) {
         config.device = device;
@@ -74,6 +77,7 @@ protected:
     void send(std::uint64_t client, bool bus_up = true) {
         Route route = answers.size();
         answers.push_back(0);
+        last.push_back(shm::Status::Ok);
         if (const auto now = intake->accept(read_fd00(client), route, bus_up, sys::now())) {
             count(route, *now);
         }
@@ -81,6 +85,39 @@ protected:
     void count(Route route, const shm::Response& r) {
         ++answers.at(route);
         ++statuses[r.status];
+        last.at(route) = r.status;
+    }
+    // A request on a route of its own; returns the route.
+    Route ask(const shm::Request& r) {
+        Route route = answers.size();
+        answers.push_back(0);
+        last.push_back(shm::Status::Ok);
+        if (const auto now = intake->accept(r, route, true, sys::now())) {
+            count(route, *now);
+        }
+        return route;
+    }
+    // Hands back what the bus has for the intake until `done` holds (or the deadline).
+    bool pump_until(const std::function<bool()>& done, std::chrono::milliseconds timeout = 20s) {
+        auto& h = loop->handover();
+        const auto deadline = sys::now() + timeout;
+        while (!done() && sys::now() < deadline) {
+            pollfd p{h.ready_fd(), POLLIN, 0};
+            (void)::poll(&p, 1, 20);
+            h.acknowledge();
+            bus::Finished f;
+            while (h.results.try_pop(f)) {
+                if (auto a = intake->finish(f)) {
+                    if (a->entry.route) {
+                        count(*a->entry.route, a->response);
+                    }
+                    if (a->entry.withdrawal) {
+                        count(*a->entry.withdrawal, a->response);
+                    }
+                }
+            }
+        }
+        return done();
     }
     // Answers what the bus handed back, until nothing is in flight (or the deadline).
     bool drain(std::chrono::milliseconds timeout = 20s) {
@@ -95,6 +132,9 @@ protected:
                 auto a = intake->finish(f);
                 if (a && a->entry.route) {
                     count(*a->entry.route, a->response);
+                }
+                if (a && a->entry.withdrawal) {
+                    count(*a->entry.withdrawal, a->response);
                 }
             }
         }
@@ -163,6 +203,64 @@ TEST_F(Answers, AFloodOfManyClientsIsAnsweredRequestForRequest) {
     EXPECT_GE(statuses[shm::Status::Ok], 5U * config.queue_limit);
     EXPECT_EQ(loop->status().counters.queue_rejections, 0U) << "the one limit is the intake's";
     EXPECT_EQ(intake->queue_full(), statuses[shm::Status::QueueFull]) << "and the intake counts what it refuses";
+}
+
+shm::Request write_fa51(std::uint64_t correlation, std::uint16_t value) {
+    shm::Request r;
+    r.size = sizeof r;
+    r.kind = shm::RequestKind::Write;
+    r.client = 7;
+    r.correlation = correlation;
+    shm::assign(r.drive, "pump");
+    shm::assign(r.client_name, "withdrawer");
+    r.start = 0xFA51;
+    r.count = 1;
+    r.values[0] = value;
+    return r;
+}
+
+shm::Request withdrawal_of(shm::Request r) {
+    r.kind = shm::RequestKind::Withdraw;
+    return r;
+}
+
+// A client that gives up withdraws its request: one still queued is never sent and both the
+// request and its withdrawal are answered Withdrawn; one already on the wire is answered Sent
+// (its outcome unknown to the client), then its own result comes; a withdrawal of a request
+// drivebusd does not hold is answered NotPending. The simulator's register says what reached it.
+TEST_F(Answers, AWithdrawnRequestIsNeverSentAndOneOnTheWireIsSaidToBe) {
+    SimProcess sim({"--drive", "1:atv21", "--no-pace"});
+    ASSERT_EQ(sim.command("set 1 F803 0").rfind("ok", 0), 0U);
+    ASSERT_EQ(sim.command("fault 1 late=150ms").rfind("ok", 0), 0U);  // each transaction takes 150 ms
+    config.response_timeout = std::chrono::milliseconds(500);
+    start(sim.link());
+    ASSERT_TRUE(wait_until([&] { return loop->up(); }, 10s));
+
+    // A first write occupies the line; the second waits behind it and is withdrawn.
+    const Route first = ask(write_fa51(1, 111));
+    ASSERT_TRUE(wait_until([&] { return loop->status().counters.transmissions > 0; }, 10s));
+    const Route queued = ask(write_fa51(2, 777));
+    const Route withdrawal = ask(withdrawal_of(write_fa51(2, 777)));
+    ASSERT_TRUE(pump_until([&] { return answers[queued] > 0 && answers[withdrawal] > 0 && answers[first] > 0; }));
+    EXPECT_EQ(last[queued], shm::Status::Withdrawn);
+    EXPECT_EQ(last[withdrawal], shm::Status::Withdrawn);
+    EXPECT_EQ(last[first], shm::Status::Ok);
+
+    // One on the wire: the withdrawal is told Sent, the request gets its own result.
+    const auto sent_before = loop->status().counters.transmissions;
+    const Route on_wire = ask(write_fa51(3, 555));
+    ASSERT_TRUE(wait_until([&] { return loop->status().counters.transmissions > sent_before; }, 10s));
+    const Route late_withdrawal = ask(withdrawal_of(write_fa51(3, 555)));
+    ASSERT_TRUE(pump_until([&] { return answers[on_wire] > 0 && answers[late_withdrawal] > 0; }));
+    EXPECT_EQ(last[late_withdrawal], shm::Status::Sent);
+    EXPECT_EQ(last[on_wire], shm::Status::Ok);
+
+    // Nothing pending under that correlation any more.
+    const Route stray = ask(withdrawal_of(write_fa51(3, 555)));
+    EXPECT_EQ(last[stray], shm::Status::Rejected);
+    EXPECT_EQ(intake->book().size(), 0U);
+    expect_each_answered_once();
+    EXPECT_EQ(sim.command("get 1 FA51"), "ok 555") << "the withdrawn 777 never reached the drive";
 }
 
 TEST_F(Answers, TheIntakeAnswersBusDownWithoutBookingWhenItKnowsTheLineIsDown) {
