@@ -427,6 +427,16 @@ DriveFeed* Bus::Impl::feed(std::string_view which) {
     return nullptr;
 }
 
+bool Bus::Impl::send(const shm::Request& request) {
+    std::lock_guard lock(client_mutex);
+    auto loaned = client->loan(sizeof(shm::Request), alignof(shm::Request));
+    if (loaned.has_error()) {
+        return false;
+    }
+    std::memcpy(loaned.value(), &request, sizeof request);
+    return !client->send(loaned.value()).has_error();
+}
+
 std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (!client) {
         std::string group;
@@ -459,15 +469,7 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
         request.correlation = next_correlation++;
         waiting.emplace(request.correlation, std::nullopt);
     }
-    bool sent = false;
-    {
-        std::lock_guard lock(client_mutex);
-        auto loaned = client->loan(sizeof(shm::Request), alignof(shm::Request));
-        if (!loaned.has_error()) {
-            std::memcpy(loaned.value(), &request, sizeof request);
-            sent = !client->send(loaned.value()).has_error();
-        }
-    }
+    const bool sent = send(request);
     std::unique_lock lock(mutex);
     if (!sent) {
         waiting.erase(request.correlation);
@@ -482,15 +484,7 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
         lock.unlock();
         shm::Request withdraw = request;
         withdraw.kind = shm::RequestKind::Withdraw;
-        bool asked = false;
-        {
-            std::lock_guard client_lock(client_mutex);
-            auto loaned = client->loan(sizeof(shm::Request), alignof(shm::Request));
-            if (!loaned.has_error()) {
-                std::memcpy(loaned.value(), &withdraw, sizeof withdraw);
-                asked = !client->send(loaned.value()).has_error();
-            }
-        }
+        const bool asked = send(withdraw);
         lock.lock();
         if (asked) {
             answered = changed.wait_for(lock, std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)),

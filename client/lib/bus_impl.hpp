@@ -51,6 +51,8 @@ struct Bus::Impl {
 
     std::expected<void, Error> open();  // ports, first status, drives
     std::expected<shm::Response, Error> call(shm::Request request);
+    // Hands `request` to drivebusd's request server; false when it cannot be sent.
+    bool send(const shm::Request& request);
     [[nodiscard]] bool alive() const;
     [[nodiscard]] DriveFeed* feed(std::string_view name);
 
