@@ -131,13 +131,15 @@ public:
 
 private:
     // A Withdraw: the request it names goes to the bus for withdrawal, and the answer waits for
-    // the bus's word; a request not in the book is answered NotPending at once.
+    // the bus's word; a request not in the book, or already asked to withdraw, is answered
+    // NotPending at once (so no client can fill the rings to the bus thread with withdrawals).
     std::optional<shm::Response> withdraw(const Origin& who, Route& route) {
         const auto id = book_.find(who.client, who.correlation);
         auto* e = id ? book_.entry(*id) : nullptr;
-        if (e == nullptr || e->withdrawal) {
+        if (e == nullptr || e->withdrawal_asked) {
             return answer(who, shm::Status::Rejected, shm::RejectReason::NotPending);
         }
+        e->withdrawal_asked = true;
         master::ClientRequest order;
         order.client = who.client;
         order.correlation = *id;

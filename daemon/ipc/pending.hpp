@@ -39,6 +39,7 @@ public:
         Origin origin;
         std::optional<Route> route;       // empty for drivebusd's own requests
         std::optional<Route> withdrawal;  // the client's Withdraw of it, waiting for the bus's word
+        bool withdrawal_asked = false;    // one per request: the rings hold one withdrawal each
     };
 
     explicit PendingBook(std::size_t limit) : limit_(limit) {}
@@ -50,13 +51,13 @@ public:
             return std::nullopt;
         }
         ++clients_;
-        return add(Entry{std::move(origin), std::move(route), std::nullopt});
+        return add(Entry{std::move(origin), std::move(route), std::nullopt, false});
     }
     // drivebusd's own (a lease fallback): outside the clients' limit; the bus sizes its rings
     // for one per drive.
     std::uint64_t book_own(Origin origin) {
         origin.fallback = true;
-        return add(Entry{std::move(origin), std::nullopt, std::nullopt});
+        return add(Entry{std::move(origin), std::nullopt, std::nullopt, false});
     }
     // The bus answered `id`: the entry leaves the book. Nullopt for an id not booked.
     std::optional<Entry> finish(std::uint64_t id) {

@@ -251,6 +251,10 @@ TEST_F(Answers, AWithdrawnRequestIsNeverSentAndOneOnTheWireIsSaidToBe) {
     const Route on_wire = ask(write_fa51(3, 555));
     ASSERT_TRUE(wait_until([&] { return loop->status().counters.transmissions > sent_before; }, 10s));
     const Route late_withdrawal = ask(withdrawal_of(write_fa51(3, 555)));
+    // One withdrawal per request: a second is answered at once and reaches no ring.
+    const Route again = ask(withdrawal_of(write_fa51(3, 555)));
+    EXPECT_EQ(answers[again], 1U);
+    EXPECT_EQ(last[again], shm::Status::Rejected);
     ASSERT_TRUE(pump_until([&] { return answers[on_wire] > 0 && answers[late_withdrawal] > 0; }));
     EXPECT_EQ(last[late_withdrawal], shm::Status::Sent);
     EXPECT_EQ(last[on_wire], shm::Status::Ok);
