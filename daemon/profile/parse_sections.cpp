@@ -274,7 +274,8 @@ RegisterInfo read_register(const toml::table& table, std::size_t index, Errors& 
 
 IndirectBlock read_block(const toml::table& table, std::size_t index, Errors& errors) {
     Section s(table, entry_name("indirect_block", index), errors);
-    s.allow_only({"function", "address", "min_quantity", "max_quantity", "selectors", "choices"});
+    s.allow_only(
+        {"function", "address", "min_quantity", "max_quantity", "selectors", "choices", "selectors_take_effect"});
     IndirectBlock b;
     const auto function = s.integer("function", 0, 255, Need::Required);
     if (function && *function != 3 && *function != 16) {
@@ -298,6 +299,11 @@ IndirectBlock read_block(const toml::table& table, std::size_t index, Errors& er
     for (auto& [value, name] : s.numbered_strings("choices", 0, 0xFFFF)) {
         b.choices.emplace(static_cast<std::uint16_t>(value), std::move(name));
     }
+    const auto effect = s.string("selectors_take_effect").value_or("at-once");
+    if (effect != "at-once" && effect != "after-reset") {
+        s.fail("selectors_take_effect \"" + effect + "\" is not \"at-once\" or \"after-reset\"");
+    }
+    b.selectors_after_reset = effect == "after-reset";
     return b;
 }
 

@@ -58,6 +58,9 @@ struct IndirectBlock {
     std::uint16_t max_quantity = 1;
     std::vector<std::string> selectors;            // selector parameter per slot, e.g. F875..F879
     std::map<std::uint16_t, std::string> choices;  // selector value -> register name
+    // A selector written takes effect only after the drive is reset or powered up again (the
+    // ATV21's F870-F879); until then the block keeps the selection it had.
+    bool selectors_after_reset = false;
 };
 
 struct FunctionSupport {

@@ -233,6 +233,7 @@ TEST(Atv21, ReadIndirectBlock) {
     ASSERT_TRUE(block->choices.contains(2));
     EXPECT_EQ(block->choices.at(2), "FD00");
     EXPECT_FALSE(block->choices.contains(0));  // 0 is "no selection", not a register
+    EXPECT_TRUE(block->selectors_after_reset);  // section 6: "Activation: Après réinitialisation"
 }
 
 TEST(Atv21, WriteIndirectBlock) {
@@ -244,6 +245,7 @@ TEST(Atv21, WriteIndirectBlock) {
     EXPECT_EQ(block->max_quantity, 2);
     EXPECT_EQ(block->selectors, (std::vector<std::string>{"F870", "F871"}));
     EXPECT_EQ(block->choices.at(3), "FA01");
+    EXPECT_TRUE(block->selectors_after_reset);
     EXPECT_EQ(p.block(6), nullptr);
 }
 
@@ -587,6 +589,12 @@ TEST(Validation, BlockChoiceNotARegister) {
 TEST(Validation, BlockSelectorNotARegister) {
     EXPECT_TRUE(rejected(edited(R"(selectors = ["S1", "S2"])", R"(selectors = ["S1", "S9"])"),
                          {"indirect_block #1: ", "selectors[1] 'S9' is not a register of this profile"}));
+}
+
+TEST(Validation, BlockSelectorsTakeEffectAtOnceOrAfterAReset) {
+    EXPECT_TRUE(
+        rejected(edited("function = 3", "function = 3\nselectors_take_effect = \"later\""),
+                 {"indirect_block #1: ", "selectors_take_effect \"later\" is not \"at-once\" or \"after-reset\""}));
 }
 
 TEST(Validation, BlockFunctionNot3Or16) {
