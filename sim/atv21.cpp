@@ -80,6 +80,35 @@ Atv21Drive::Atv21Drive(rtu::SlaveAddress address, std::shared_ptr<const Profile>
     for (const auto& name : write_block_->selectors) {
         write_selectors_.push_back(address_of(name));
     }
+    apply_selectors();
+    publish();
+}
+
+void Atv21Drive::apply_selectors() {
+    read_selection_.clear();
+    for (const auto selector : read_selectors_) {
+        read_selection_.push_back(reg(selector));
+    }
+    write_selection_.clear();
+    for (const auto selector : write_selectors_) {
+        write_selection_.push_back(reg(selector));
+    }
+}
+
+void Atv21Drive::power_cycle(rtu::Instant now) {
+    // Section 8.2 lists the parameters kept in RAM only: FA00, FA20, FA01, FA13, FA50, FA51.
+    for (const RegisterInfo& info : profile().registers) {
+        if (info.name.starts_with("FA") && info.address) {
+            bank().put(*info.address, static_cast<std::uint16_t>(info.default_value.value_or(0)));
+        }
+    }
+    fault_.reset();
+    bank().put(fc90_, 0);
+    output_centi_hz_ = 0.0;
+    accelerating_ = false;
+    last_advance_ = now;
+    last_valid_request_.reset();  // the Modbus time-out starts again with the first request
+    apply_selectors();
     publish();
 }
 
@@ -121,7 +150,9 @@ rtu::Response Atv21Drive::read(const rtu::ReadHoldingRegisters& request, rtu::In
     }
     rtu::ReadHoldingRegistersResponse reply;
     for (std::uint16_t slot = 0; slot < request.quantity; ++slot) {
-        const auto choice = read_block_->choices.find(reg(read_selectors_[slot]));
+        const std::uint16_t selection =
+            read_block_->selectors_after_reset ? read_selection_[slot] : reg(read_selectors_[slot]);
+        const auto choice = read_block_->choices.find(selection);
         const RegisterInfo* target =
             choice == read_block_->choices.end() ? nullptr : profile().find(std::string_view(choice->second));
         // A slot with no selection reads as 0.
@@ -141,7 +172,9 @@ rtu::Response Atv21Drive::write_multiple(const rtu::WriteMultipleRegisters& requ
     // Resolve every slot first; the first slot must be configured (F870 = 0: exception 4, 7.8).
     std::vector<std::optional<std::uint16_t>> targets;
     for (std::size_t slot = 0; slot < request.values.size(); ++slot) {
-        const auto choice = write_block_->choices.find(reg(write_selectors_[slot]));
+        const std::uint16_t selection =
+            write_block_->selectors_after_reset ? write_selection_[slot] : reg(write_selectors_[slot]);
+        const auto choice = write_block_->choices.find(selection);
         const RegisterInfo* target =
             choice == write_block_->choices.end() ? nullptr : profile().find(std::string_view(choice->second));
         if (target == nullptr || !target->address) {
@@ -191,9 +224,11 @@ void Atv21Drive::on_request(bool broadcast, rtu::Instant now) {
 void Atv21Drive::on_write(std::uint16_t address, std::uint16_t value, rtu::Instant now) {
     if (address == fa00_) {
         if ((value & bit(kCmdFaultReset)) != 0 && fault_) {
+            // A reset after a fault (guide 8.2): what takes effect "after a reset" does now.
             fault_.reset();
             bank().put(fc90_, 0);
             last_valid_request_ = now;
+            apply_selectors();
         }
         if ((value & bit(kCmdEmergencyStop)) != 0) {
             trip(kFaultEmergencyStop);

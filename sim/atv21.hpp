@@ -18,6 +18,9 @@ public:
     // "load" (motor load, % of rating, 0-200), "fh" (maximum frequency, Hz), "cmod"
     // (0 terminals, 2 serial link), "fmod" (1 VIA, 4 serial link).
     bool set_option(std::string_view key, double value) override;
+    // Power off and on: the control parameters (RAM, guide 8.2) return to their initial
+    // values, the fault and the motor stop, and F870-F879 as stored take effect.
+    void power_cycle(rtu::Instant now) override;
 
     [[nodiscard]] double output_hz() const noexcept { return output_centi_hz_ / 100.0; }
     [[nodiscard]] bool faulted() const noexcept { return fault_.has_value(); }
@@ -42,14 +45,21 @@ private:
     void ramp_to(rtu::Instant t);
     void trip(std::uint16_t code);
     void publish();
+    // F870-F879 take effect "après réinitialisation" (guide section 6): at power-up and when a
+    // fault is reset. Until then each block keeps the selection it had.
+    void apply_selectors();
 
     // Register addresses, resolved from the profile by name.
     std::uint16_t fa00_, fa01_, fd00_, fd01_, fe01_, fe03_, fe05_, fe90_, fc90_, fc91_, f603_, f803_, f856_, acc_;
     std::uint16_t fe10_, fe11_, fe12_, fe13_;
     const IndirectBlock* read_block_ = nullptr;
     const IndirectBlock* write_block_ = nullptr;
-    std::vector<std::uint16_t> read_selectors_;
-    std::vector<std::uint16_t> write_selectors_;
+    std::vector<std::uint16_t> read_selectors_;   // F875-F879
+    std::vector<std::uint16_t> write_selectors_;  // F870-F871
+    // The selections in effect: what the selectors held at the last power-up or reset (the
+    // selectors themselves when the profile says they take effect at once).
+    std::vector<std::uint16_t> read_selection_;
+    std::vector<std::uint16_t> write_selection_;
 
     // Motor and drive state.
     double output_centi_hz_ = 0.0;  // signed: negative is reverse

@@ -9,7 +9,7 @@ namespace {
 
 constexpr std::string_view kHelp =
     "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
-    "writes ADDR | get ADDR REG | set ADDR REG VALUE | option ADDR key=value";
+    "writes ADDR | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power ADDR";
 
 std::vector<std::string_view> words(std::string_view line) {
     std::vector<std::string_view> out;
@@ -153,6 +153,15 @@ std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
         bus.advance(now);
         const auto ok = bus.drive(*address)->poke(w[2], *value);
         return ok ? "ok" : error(ok.error());
+    }
+    if (verb == "power" && w.size() == 2) {
+        const auto address = target(bus, w[1], false);
+        if (!address) {
+            return error(address.error());
+        }
+        bus.advance(now);
+        bus.drive(*address)->power_cycle(now);
+        return "ok";
     }
     if (verb == "option" && w.size() == 3) {
         auto ok = apply_option_argument(bus, std::string(w[1]) + ":" + std::string(w[2]));

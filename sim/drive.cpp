@@ -58,6 +58,8 @@ std::optional<ExceptionCode> ProfileDrive::refuse_write(std::uint16_t /*address*
 }
 void ProfileDrive::on_request(bool /*broadcast*/, rtu::Instant /*now*/) {}
 void ProfileDrive::on_write(std::uint16_t /*address*/, std::uint16_t /*value*/, rtu::Instant /*now*/) {}
+void ProfileDrive::power_cycle(rtu::Instant /*now*/) {}
+
 bool ProfileDrive::set_option(std::string_view /*key*/, double /*value*/) {
     return false;
 }

@@ -48,6 +48,9 @@ public:
     [[nodiscard]] std::expected<void, std::string> poke(std::string_view name, std::uint16_t value);
     // Operator settings that are not registers (motor load, ...); false if unknown.
     virtual bool set_option(std::string_view key, double value);
+    // The drive is switched off and on again: what it keeps in RAM starts over, and what it
+    // applies only at power-up takes effect. A plain profile drive keeps every register.
+    virtual void power_cycle(rtu::Instant now);
 
 protected:
     virtual rtu::Response read(const rtu::ReadHoldingRegisters& request, rtu::Instant now);

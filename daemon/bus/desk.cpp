@@ -9,6 +9,19 @@ namespace drivebus::bus {
 Desk::Desk(const config::BusConfig& bus, Handover& handover)
     : bus_(bus), handover_(handover), fallbacks_(bus.drives.size()) {}
 
+namespace {
+
+Refusal refusal(master::SubmitError error) noexcept {
+    switch (error) {
+    case master::SubmitError::QueueFull: return Refusal::QueueFull;
+    case master::SubmitError::UnknownDrive: return Refusal::UnknownDrive;
+    case master::SubmitError::BlockUnconfirmed: return Refusal::BlockUnconfirmed;
+    }
+    return Refusal::UnknownDrive;
+}
+
+}  // namespace
+
 // Every request taken off the ring is either the engine's now or answered now: the ipc side
 // frees its entry only when an answer comes back.
 void Desk::take_requests() {
@@ -28,9 +41,7 @@ void Desk::take_requests() {
             continue;
         }
         if (auto taken = engine_->submit(request); !taken) {
-            handover_.put(refused(request.correlation, taken.error() == master::SubmitError::QueueFull
-                                                            ? Refusal::QueueFull
-                                                            : Refusal::UnknownDrive));
+            handover_.put(refused(request.correlation, refusal(taken.error())));
         }
     }
 }

@@ -17,8 +17,11 @@ enum class Refusal : std::uint8_t {
     None,
     QueueFull,     // the scheduler's queue was full (the intake's limit should prevent it)
     UnknownDrive,  // no configured drive at the request's address
-    BusDown,       // the line is not open, or went down while the request waited
-    Withdrawn,     // withdrawn by its client before it reached the wire
+    // Through an indirect block the drive has not been seen to apply (its set-up failed, or a
+    // reset is awaited).
+    BlockUnconfirmed,
+    BusDown,    // the line is not open, or went down while the request waited
+    Withdrawn,  // withdrawn by its client before it reached the wire
     // Not an end: a withdrawal came too late, the request has reached the wire (or finished);
     // its own result comes (or came) apart.
     NotWithdrawn,

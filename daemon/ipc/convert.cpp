@@ -33,6 +33,7 @@ shm::DriveHealth to_shm(master::Health health) noexcept {
     case master::Health::Online: return shm::DriveHealth::Online;
     case master::Health::Absent: return shm::DriveHealth::Absent;
     case master::Health::Unconfigured: return shm::DriveHealth::Unconfigured;
+    case master::Health::AwaitingReset: return shm::DriveHealth::AwaitingReset;
     case master::Health::Unknown: break;
     }
     return shm::DriveHealth::Unknown;
@@ -109,6 +110,10 @@ void fill_response(const bus::Finished& f, shm::Response& out) noexcept {
     case bus::Refusal::UnknownDrive:
         out.status = shm::Status::Rejected;
         out.reason = shm::RejectReason::UnknownDrive;
+        return;
+    case bus::Refusal::BlockUnconfirmed:
+        out.status = shm::Status::Rejected;
+        out.reason = shm::RejectReason::BlockNotApplied;
         return;
     }
     out.attempts = f.attempts;

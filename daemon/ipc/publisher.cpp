@@ -73,7 +73,7 @@ bool Publisher::snapshot(std::size_t drive, const master::DriveSnapshot& s, cons
     health_[drive] = s.health;
     online_.store(static_cast<std::size_t>(std::ranges::count(health_, master::Health::Online)),
                   std::memory_order_relaxed);
-    log_health(drive, before, s.health);
+    log_health(drive, before, s.health, s.setup);
     return true;
 }
 
@@ -114,7 +114,80 @@ void Publisher::status(const master::BusStatus& bus, const IpcCounts& counts) {
     sample.value().publish();
 }
 
-void Publisher::log_health(std::size_t drive, master::Health before, master::Health now) {
+namespace {
+
+std::string hex(std::uint16_t value) {
+    return fmt::format("0x{:04X}", value);
+}
+
+std::string name_of(const Profile& profile, std::uint16_t address) {
+    const auto* r = profile.find(address);
+    return r != nullptr ? r->name : hex(address);
+}
+
+// The selectors of the block at `address` ("F875-F879"), or of the block selector `address`
+// belongs to.
+std::string selectors_of(const Profile& profile, std::uint16_t address) {
+    for (const auto& block : profile.indirect_blocks) {
+        bool ours = block.address == address;
+        for (const auto& name : block.selectors) {
+            const auto* r = profile.find(std::string_view(name));
+            ours = ours || (r != nullptr && r->address == address);
+        }
+        if (ours && !block.selectors.empty()) {
+            return block.selectors.size() == 1 ? block.selectors.front()
+                                               : block.selectors.front() + "-" + block.selectors.back();
+        }
+    }
+    return "its block selectors";
+}
+
+// Why a set-up did not hold, and what to do, in one line.
+std::string setup_problem(const config::DriveConfig& d, master::Health health, const master::SetupNote& note) {
+    using Kind = master::SetupNote::Kind;
+    const Profile& p = *d.profile;
+    std::string why;
+    switch (note.kind) {
+    case Kind::None: why = "its set-up did not hold"; break;
+    case Kind::Refused:
+        why = note.exception != 0 ? fmt::format("it refused {} (exception {})", name_of(p, note.reg), note.exception)
+                                  : fmt::format("no valid reply to the set-up of {}", name_of(p, note.reg));
+        break;
+    case Kind::ReadBack:
+        why = fmt::format("{} was written {} and reads {}", name_of(p, note.reg), note.wanted, note.held);
+        break;
+    case Kind::BlockDiffers:
+        why = fmt::format("slot {} of the block at {} reads {} where {} reads {}", note.slot, hex(note.block),
+                          note.held, name_of(p, note.reg), note.wanted);
+        break;
+    case Kind::NotApplied: why = fmt::format("{} written", selectors_of(p, note.reg)); break;
+    case Kind::CannotTell:
+        why = fmt::format(
+            "{} written; the block at {} does not yet tell whether the drive applies them (its "
+            "values are the same either way), tried again",
+            selectors_of(p, note.block), hex(note.block));
+        break;
+    }
+    const std::string selectors = selectors_of(p, note.kind == Kind::NotApplied ? note.reg : note.block);
+    if (health == master::Health::AwaitingReset) {
+        return fmt::format(
+            "{}: the drive applies {} only after a reset: power-cycle it (or reset it after a "
+            "fault). Until then nothing is polled and requests through its blocks are refused",
+            why, selectors);
+    }
+    const bool after_reset = std::ranges::any_of(p.indirect_blocks, &IndirectBlock::selectors_after_reset);
+    return fmt::format("{}; not polled, set up again with back-off{}", why,
+                       note.kind == Kind::BlockDiffers && after_reset
+                           ? fmt::format(" (the drive applies {} only after a reset: if they were changed "
+                                         "since it was last powered up, power-cycle it)",
+                                         selectors)
+                           : std::string());
+}
+
+}  // namespace
+
+void Publisher::log_health(std::size_t drive, master::Health before, master::Health now,
+                           const master::SetupNote& note) {
     const auto& d = bus_.drives[drive];
     const std::string key = bus_.name + "/" + d.name;
     if (now == master::Health::Absent) {
@@ -122,12 +195,20 @@ void Publisher::log_health(std::size_t drive, master::Health before, master::Hea
                           fmt::format("bus {} drive {} (address {}): absent, no reply after every retry; probing "
                                       "with back-off",
                                       bus_.name, d.name, d.address));
-    } else if (now == master::Health::Unconfigured && before != master::Health::Unconfigured) {
-        log::error(fmt::format("bus {} drive {}: its set-up (the selectors of its indirect blocks) failed or did not "
-                               "read back as written; not polled, set up again with back-off",
-                               bus_.name, d.name));
+    } else if (now == master::Health::Unconfigured) {
+        log::error(fmt::format("bus {} drive {}: unconfigured: {}", bus_.name, d.name, setup_problem(d, now, note)));
+    } else if (now == master::Health::AwaitingReset) {
+        log::warning(
+            fmt::format("bus {} drive {}: awaiting a reset: {}", bus_.name, d.name, setup_problem(d, now, note)));
     } else if (now == master::Health::Online && before == master::Health::Absent) {
+        absent_log_.reset(key);  // the absence is over: the next one is logged at once
         log::notice(fmt::format("bus {} drive {}: answering again", bus_.name, d.name));
+    } else if (now == master::Health::Online &&
+               (before == master::Health::Unconfigured || before == master::Health::AwaitingReset)) {
+        log::notice(
+            fmt::format("bus {} drive {}: its set-up holds and its blocks return what drivebusd selected: "
+                        "polled",
+                        bus_.name, d.name));
     }
 }
 

@@ -49,7 +49,7 @@ public:
 
 private:
     void publish(std::size_t drive);
-    void log_health(std::size_t drive, master::Health before, master::Health now);
+    void log_health(std::size_t drive, master::Health before, master::Health now, const master::SetupNote& note);
 
     const config::BusConfig& bus_;
     std::string control_group_;

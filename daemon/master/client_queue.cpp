@@ -34,6 +34,9 @@ std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
         drives_[job.drive].fallback = std::move(job);
         return {};
     }
+    if (job.drive != kNoDrive && !drives_[job.drive].blocks_confirmed && through_block(job.drive, job.request)) {
+        return std::unexpected(SubmitError::BlockUnconfirmed);
+    }
     if (queued_ >= bus_.queue_limit) {
         return std::unexpected(SubmitError::QueueFull);
     }

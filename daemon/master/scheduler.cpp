@@ -36,8 +36,9 @@ Scheduler::Scheduler(const config::BusConfig& bus, rtu::Instant start) : bus_(bu
         }
         // The selectors of the indirect blocks, as the configuration fixed them (admission
         // checks client requests through the blocks against the same values).
-        drive.setup = setup_writes(d);
+        drive.setup = SetupPlan(d.address, *d.profile, block_setups(d));
         drive.setup_done = drive.setup.empty();
+        drive.blocks_confirmed = drive.setup.empty();
         drives_.push_back(std::move(drive));
     }
 }
@@ -112,40 +113,110 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
 std::optional<Job> Scheduler::next_setup(rtu::Instant now) {
     for (std::size_t d = 0; d < drives_.size(); ++d) {
         Drive& drive = drives_[d];
-        if (drive.setup_done || drive.health == Health::Absent || drive.setup_cursor >= 2 * drive.setup.size() ||
-            now < drive.setup_retry) {
+        if (drive.setup_done || drive.health == Health::Absent || now < drive.setup_retry) {
             continue;
         }
-        // Each selector is written, then read back: the block is trusted only as the drive holds it.
-        const auto [address, value] = drive.setup[drive.setup_cursor / 2];
+        const auto request = drive.setup.next();
+        if (!request) {
+            continue;
+        }
         Job job;
         job.kind = JobKind::Setup;
         job.drive = d;
-        job.chunk = drive.setup_cursor;
-        if (drive.setup_cursor % 2 == 0) {
-            job.request = {drive.config->address, rtu::WriteSingleRegister{address, value}};
-        } else {
-            job.request = {drive.config->address, rtu::ReadHoldingRegisters{address, 1}};
-        }
-        ++drive.setup_cursor;
+        job.request = *request;
         return job;
     }
     return std::nullopt;
 }
 
-void Scheduler::setup_failed(std::size_t drive, rtu::Instant now) {
+void Scheduler::setup_failed(std::size_t drive, rtu::Instant now, SetupState state) {
     Drive& d = drives_[drive];
-    d.health = Health::Unconfigured;
+    d.health = state == SetupState::AwaitingReset ? Health::AwaitingReset : Health::Unconfigured;
     d.setup_done = false;
-    d.setup_cursor = 0;
+    d.blocks_confirmed = false;
+    d.setup.restart();
     d.setup_backoff =
         d.setup_backoff.count() == 0 ? bus_.absent_backoff_min : std::min(d.setup_backoff * 2, bus_.absent_backoff_max);
     d.setup_retry = now + d.setup_backoff;
-    for (RegisterEntry& e : d.values) {
-        e.value.valid = false;
+    for (auto& [address, value] : d.values) {
+        value.valid = false;
     }
     for (Group& g : d.groups) {
         g.cursor.reset();
+    }
+}
+
+std::optional<std::size_t> Scheduler::setup_step(const Job& job, const Result& result, rtu::Instant now) {
+    Drive& drive = drives_[job.drive];
+    if (result.outcome == Outcome::BusDown) {
+        drive.setup.restart();  // the line went down: set up again from the start once it is back
+        return std::nullopt;
+    }
+    const Health before = drive.health;
+    switch (drive.setup.take(result)) {
+    case SetupState::Running: return std::nullopt;
+    case SetupState::Done:
+        drive.setup_done = true;
+        drive.blocks_confirmed = true;
+        drive.setup_backoff = {};
+        if (drive.health == Health::Unconfigured || drive.health == Health::AwaitingReset) {
+            drive.health = Health::Online;
+        }
+        break;
+    case SetupState::Failed:
+    case SetupState::AwaitingReset: setup_failed(job.drive, now, drive.setup.state()); break;
+    }
+    if (drive.health != before) {
+        ++drive.sequence;
+        return job.drive;
+    }
+    return std::nullopt;
+}
+
+bool Scheduler::through_block(std::size_t drive, const rtu::RequestAdu& request) const noexcept {
+    const Profile& profile = *drives_[drive].config->profile;
+    const auto at = [&](std::uint8_t function, std::uint16_t start, std::size_t count) {
+        const IndirectBlock* block = profile.block(function);
+        return block != nullptr && start == block->address && count >= block->min_quantity &&
+               count <= block->max_quantity;
+    };
+    if (const auto* r = std::get_if<rtu::ReadHoldingRegisters>(&request.pdu)) {
+        return at(3, r->start, r->quantity);
+    }
+    if (const auto* w = std::get_if<rtu::WriteMultipleRegisters>(&request.pdu)) {
+        return at(16, w->start, w->values.size());
+    }
+    if (const auto* w = std::get_if<rtu::WriteSingleRegister>(&request.pdu)) {
+        return at(16, w->address, 1);
+    }
+    return false;
+}
+
+// A drive whose fault is cleared has been reset: what it applies after a reset (the ATV21's
+// block selectors) may have changed, so its blocks are confirmed again.
+void Scheduler::watch_fault(std::size_t drive, const ReadChunk& chunk, const Result& result) {
+    Drive& d = drives_[drive];
+    const Profile& profile = *d.config->profile;
+    if (d.setup.empty() || !profile.control || !profile.control->status_bits.contains("fault")) {
+        return;
+    }
+    const RegisterInfo* status = profile.find(std::string_view(profile.control->status));
+    const auto* words = result.response ? std::get_if<rtu::ReadHoldingRegistersResponse>(&*result.response) : nullptr;
+    if (status == nullptr || !status->address || words == nullptr) {
+        return;
+    }
+    for (std::size_t i = 0; i < chunk.addresses.size() && i < words->values.size(); ++i) {
+        if (chunk.addresses[i] != *status->address) {
+            continue;
+        }
+        const unsigned bit = profile.control->status_bits.at("fault");
+        const bool faulted = ((static_cast<unsigned>(words->values[i]) >> bit) & 1U) != 0;
+        if (d.faulted && !faulted && d.setup_done) {
+            d.setup.reset_seen();
+            d.setup.restart();
+            d.setup_done = false;
+        }
+        d.faulted = faulted;
     }
 }
 
@@ -292,6 +363,7 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
     }
     Drive& drive = drives_[job.drive];
     const bool answered = result.outcome == Outcome::Ok || result.outcome == Outcome::Exception;
+    const Health entry = drive.health;
     if (answered) {
         mark_present(job.drive, now);
     } else if (result.outcome == Outcome::Timeout && (job.kind != JobKind::Client || job.fallback)) {
@@ -303,36 +375,23 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
         return was_absent ? std::nullopt : std::optional<std::size_t>(job.drive);
     }
 
-    if (job.kind == JobKind::Setup && result.outcome == Outcome::BusDown) {
-        drive.setup_cursor = 0;  // the line went down: set up again from the start once it is back
-        return std::nullopt;
+    // Back from absence to a set-up that did not hold before: published now (an Online drive is
+    // published with its next poll cycle).
+    std::optional<std::size_t> back;
+    if (entry == Health::Absent && drive.health != Health::Absent && drive.health != Health::Online) {
+        ++drive.sequence;
+        back = job.drive;
     }
     if (job.kind == JobKind::Setup) {
-        const std::size_t step = job.chunk;
-        const auto expected = drive.setup[std::min(step / 2, drive.setup.size() - 1)].second;
-        const auto* read =
-            result.response ? std::get_if<rtu::ReadHoldingRegistersResponse>(&*result.response) : nullptr;
-        const bool held = step % 2 == 0 ? result.outcome == Outcome::Ok
-                                        : read != nullptr && read->values.size() == 1 && read->values[0] == expected;
-        if (!held) {
-            const bool was = drive.health == Health::Unconfigured;
-            setup_failed(job.drive, now);
-            return was ? std::nullopt : std::optional<std::size_t>(job.drive);
-        }
-        if (drive.setup_cursor >= 2 * drive.setup.size()) {
-            drive.setup_done = true;
-            drive.setup_backoff = {};
-            if (drive.health == Health::Unconfigured) {
-                drive.health = Health::Online;
-                return job.drive;
-            }
-        }
+        const auto changed = setup_step(job, result, now);
+        return changed ? changed : back;
     }
     if (job.kind != JobKind::Poll || job.group >= drive.groups.size()) {
-        return std::nullopt;
+        return back;
     }
     Group& group = drive.groups[job.group];
     store(job.drive, group.chunks[job.chunk], result);
+    watch_fault(job.drive, group.chunks[job.chunk], result);
     if (!group.cursor) {
         return std::nullopt;
     }
@@ -348,17 +407,24 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
 void Scheduler::mark_present(std::size_t drive, rtu::Instant now) {
     Drive& d = drives_[drive];
     d.last_contact = now;
-    if (d.health == Health::Unconfigured) {
+    if (d.health == Health::Unconfigured || d.health == Health::AwaitingReset) {
         return;  // online once its set-up holds
     }
     if (d.health != Health::Online) {
         const bool was_absent = d.health == Health::Absent;
-        d.health = Health::Online;
+        // A drive whose set-up did not hold before it went silent is still in that state until
+        // its set-up holds.
+        d.health = was_absent && d.before_absence ? *d.before_absence : Health::Online;
         d.backoff = {};
         if (was_absent) {
-            // It may have restarted: set its blocks up again and poll everything now.
-            d.setup_cursor = 0;
+            // It may have been switched off and on: set its blocks up and confirm them again
+            // at once, and poll everything now.
+            d.setup.reset_seen();
+            d.setup.restart();
             d.setup_done = d.setup.empty();
+            d.blocks_confirmed = d.setup.empty();
+            d.setup_retry = now;
+            d.setup_backoff = {};
             for (Group& g : d.groups) {
                 g.next_due = now;
                 g.cursor.reset();
@@ -371,6 +437,9 @@ void Scheduler::mark_absent(std::size_t drive, rtu::Instant now) {
     Drive& d = drives_[drive];
     if (d.health != Health::Absent) {
         ++d.counters.absent_transitions;
+        d.before_absence = d.health == Health::Unconfigured || d.health == Health::AwaitingReset
+                               ? std::optional<Health>(d.health)
+                               : std::nullopt;
         d.backoff = bus_.absent_backoff_min;
     } else {
         d.backoff = std::min(d.backoff * 2, bus_.absent_backoff_max);
@@ -415,6 +484,7 @@ void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     s.registers = d.values;
     s.counters = d.counters;
     s.sequence = d.sequence;
+    s.setup = d.health == Health::Unconfigured || d.health == Health::AwaitingReset ? d.setup.note() : SetupNote{};
 }
 
 }  // namespace drivebus::master

@@ -12,6 +12,7 @@
 
 #include "config/config.hpp"
 #include "master/result.hpp"
+#include "master/setup_plan.hpp"
 #include "master/snapshot.hpp"
 #include "rtu/limits.hpp"
 #include "rtu/pdu.hpp"
@@ -55,7 +56,9 @@ struct Job {
 };
 inline constexpr std::size_t kNoDrive = static_cast<std::size_t>(-1);
 
-enum class SubmitError : std::uint8_t { QueueFull, UnknownDrive };
+// BlockUnconfirmed: through an indirect block whose selection the drive has not (yet) been
+// seen to apply.
+enum class SubmitError : std::uint8_t { QueueFull, UnknownDrive, BlockUnconfirmed };
 
 class Scheduler {
 public:
@@ -108,9 +111,14 @@ private:
         const config::DriveConfig* config = nullptr;
         rtu::FunctionLimits limits;
         std::vector<Group> groups;
-        std::vector<std::pair<std::uint16_t, std::uint16_t>> setup;  // selector writes for the indirect block
-        std::size_t setup_cursor = 0;  // step: 2 i writes selector i, 2 i + 1 reads it back
+        SetupPlan setup;  // the selectors of its indirect blocks, and the confirmation of the read block
         bool setup_done = true;
+        // The blocks return what drivebusd selected: set when a set-up is done, cleared when one
+        // fails and when the drive comes back from absence. Client requests through a block
+        // wait for it.
+        bool blocks_confirmed = true;
+        bool faulted = false;                  // the status word's fault bit, as last polled
+        std::optional<Health> before_absence;  // Unconfigured or AwaitingReset when it went silent
         rtu::Instant setup_retry{};  // a failed set-up starts again no sooner
         rtu::Duration setup_backoff{};
         Health health = Health::Unknown;
@@ -128,8 +136,12 @@ private:
         std::initializer_list<std::map<std::uint64_t, std::deque<Job>>*> order);
     [[nodiscard]] std::optional<Job> next_fallback();
     [[nodiscard]] std::optional<Job> next_setup(rtu::Instant now);
-    // A set-up step failed: the drive is unconfigured until a set-up succeeds.
-    void setup_failed(std::size_t drive, rtu::Instant now);
+    // A set-up did not hold: the drive is unconfigured (or awaits a reset) until one does.
+    void setup_failed(std::size_t drive, rtu::Instant now, SetupState state);
+    // A set-up step finished; returns the drive if its health changed.
+    std::optional<std::size_t> setup_step(const Job& job, const Result& result, rtu::Instant now);
+    [[nodiscard]] bool through_block(std::size_t drive, const rtu::RequestAdu& request) const noexcept;
+    void watch_fault(std::size_t drive, const ReadChunk& chunk, const Result& result);
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_keep_alive(rtu::Instant now);
     [[nodiscard]] std::optional<Job> next_probe(rtu::Instant now);

@@ -13,9 +13,31 @@
 
 namespace drivebus::master {
 
-// Unconfigured: it answers, but its set-up (the selectors of its indirect blocks) failed or did
-// not read back as written: not polled, values invalid, set up again with back-off.
-enum class Health : std::uint8_t { Unknown, Online, Absent, Unconfigured };
+// Unconfigured: it answers, but its set-up (the selectors of its indirect blocks) failed, did
+// not read back as written, or its read block returns something else: not polled, values
+// invalid, set up again with back-off. AwaitingReset: the same, because drivebusd wrote
+// selectors the drive applies only after a reset (ATV21: F870-F879): power-cycle it.
+enum class Health : std::uint8_t { Unknown, Online, Absent, Unconfigured, AwaitingReset };
+
+// Why a drive's set-up did not hold, in fixed form (it travels with the drive's snapshot).
+struct SetupNote {
+    enum class Kind : std::uint8_t {
+        None,
+        Refused,       // the drive did not take selector `reg` (`wanted`); `exception`, 0 for no valid reply
+        ReadBack,      // selector `reg` was written `wanted` and reads `held`
+        BlockDiffers,  // slot `slot` of the block at `block` reads `held`; its register `reg` reads `wanted`
+        NotApplied,    // selectors written (the first: `reg`) that the drive applies after a reset
+        CannotTell,    // a reset is awaited, and the values of the block at `block` cannot yet tell
+                       // the new selection from the one before
+    };
+    Kind kind = Kind::None;
+    std::uint16_t reg = 0;
+    std::uint16_t wanted = 0;
+    std::uint16_t held = 0;
+    std::uint16_t block = 0;
+    std::uint8_t slot = 0;  // from 1
+    std::uint8_t exception = 0;
+};
 
 struct RegisterValue {
     std::uint16_t value = 0;
@@ -98,6 +120,7 @@ struct DriveSnapshot {
     RegisterTable registers;
     DriveCounters counters;
     std::uint64_t sequence = 0;  // the drive's completed poll cycles and absences, as the scheduler counts them
+    SetupNote setup;             // Unconfigured, AwaitingReset: why
 };
 static_assert(std::is_trivially_copyable_v<DriveSnapshot>);
 

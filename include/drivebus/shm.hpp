@@ -54,8 +54,11 @@ using LeaseToken = std::array<std::uint64_t, 2>;
 enum class DriveHealth : std::uint8_t {
     Unknown = 0,  // not polled yet
     Online = 1,
-    Absent = 2,   // stopped answering; probed with back-off
-    Unconfigured = 3,  // answers, but its set-up failed or did not read back: not polled, retried
+    Absent = 2,         // stopped answering; probed with back-off
+    Unconfigured = 3,   // answers, but its set-up failed, did not read back, or its read block
+                        // returns something else: not polled, retried with back-off
+    AwaitingReset = 4,  // answers; drivebusd wrote selectors it applies only after a reset (ATV21:
+                        // F870-F879): not polled until the block shows them applied; power-cycle it
 };
 
 enum class Fallback : std::uint8_t { Hold = 0, Stop = 1, Freewheel = 2 };
@@ -263,6 +266,8 @@ enum class RejectReason : std::uint8_t {
     DaemonOwned = 9,       // drivebusd owns the register: a selector of an indirect block, a set-up write
     BlockNotSetUp = 10,    // through an indirect block, or a slot of it, that drivebusd has not set up
     NotPending = 11,       // a Withdraw of a request drivebusd does not hold: answered, or never received
+    BlockNotApplied = 12,  // through an indirect block the drive has not been seen to apply: it awaits a
+                           // reset, or its set-up did not hold (the drive's health says which)
 };
 
 struct Response {
@@ -333,6 +338,10 @@ template <typename T>
         case RejectReason::DaemonOwned: return "owned by drivebusd";
         case RejectReason::BlockNotSetUp: return "indirect block not set up by drivebusd";
         case RejectReason::NotPending: return "no such request pending";
+        case RejectReason::BlockNotApplied:
+            return "the drive has not applied the indirect block's selectors yet (it awaits a reset, or its "
+                   "set-up did not hold: see its health and drivebusd's log); read the registers one by one "
+                   "meanwhile";
     }
     return "unknown";
 }
@@ -342,6 +351,7 @@ template <typename T>
         case DriveHealth::Online: return "online";
         case DriveHealth::Absent: return "absent";
         case DriveHealth::Unconfigured: return "unconfigured";
+        case DriveHealth::AwaitingReset: return "awaiting reset";
     }
     return "unknown";
 }

@@ -80,6 +80,9 @@ protected:
         for (std::uint16_t i = 0; i < 10; ++i) {
             ASSERT_EQ(sim->command("set 2 W45" + std::to_string(i) + " " + std::to_string(kFanValue(i))), "ok");
         }
+        // A pump commissioned before: its read block selects FD00, FD01, FE03, FE05, FC91 (the
+        // selectors take effect after a reset; the set-up tests start from the factory).
+        sim->commission_read_block(1, {2, 1, 3, 4, 5});
         config.device = sim->link();
         config.response_timeout = 50ms;
         auto pump = drive("pump", 1, atv21);
@@ -142,7 +145,7 @@ TEST_F(BusLoopTest, PollsBothDrivesWithTheSimulatorsValues) {
     const auto pump = recorder.latest("pump");
     ASSERT_TRUE(pump);
     EXPECT_TRUE(pump->registers.at(0xFD01).valid);
-    // The indirect block was set up on the drive: F875 selects FD00 (2).
+    // The indirect block is set up on the drive: F875 selects FD00 (2).
     EXPECT_EQ(sim->command("get 1 F875"), "ok 2");
     EXPECT_EQ(recorder.wrong_values(), 0U);
     EXPECT_TRUE(loop->status().up);

@@ -138,6 +138,20 @@ std::string SimProcess::output() const {
     return slurp(log_);
 }
 
+void SimProcess::commission_read_block(int address, const std::vector<int>& selectors) const {
+    const std::string drive = std::to_string(address);
+    for (std::size_t slot = 0; slot < selectors.size(); ++slot) {
+        const std::string line =
+            "set " + drive + " F87" + std::to_string(5 + slot) + " " + std::to_string(selectors[slot]);
+        if (const auto answer = command(line); answer != "ok") {
+            throw std::runtime_error("drivebus-sim: " + line + ": " + answer);
+        }
+    }
+    if (const auto answer = command("power " + drive); answer != "ok") {
+        throw std::runtime_error("drivebus-sim: power " + drive + ": " + answer);
+    }
+}
+
 std::string SimProcess::command(const std::string& line) const {
     sys::UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
     sockaddr_un addr{};

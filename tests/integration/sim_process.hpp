@@ -34,6 +34,10 @@ public:
     [[nodiscard]] const std::filesystem::path& link() const noexcept { return link_; }
     // Sends one control command and returns the answer line.
     [[nodiscard]] std::string command(const std::string& line) const;
+    // The Altivar 21 at `address` as a drive commissioned before: F875 onwards hold `selectors`
+    // and are in effect (written, then the drive switched off and on, guide section 6). Throws
+    // when the simulator refuses.
+    void commission_read_block(int address, const std::vector<int>& selectors) const;
     // SIGTERM, then waits for the exit; returns the exit status (or -1 on a signal).
     int stop();
     [[nodiscard]] std::string output() const;  // what it wrote to stderr

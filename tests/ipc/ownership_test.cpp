@@ -110,6 +110,44 @@ TEST(Ownership, TheLeaseCoversTheCommandAndReferenceReachedThroughTheWriteBlock)
     EXPECT_NE(stack.daemon_output().find("took the control lease over"), std::string::npos) << stack.daemon_output();
 }
 
+// Finding 3: the ATV21 applies F875-F879 only after a reset (guide section 6). A drive fresh
+// from the factory gets its selectors written, and then awaits a reset: drivebusd says so in
+// its log and in the drive's health, publishes nothing read through the block, and refuses a
+// client's read through it (the drive would answer with its old selection). Switched off and
+// on, the drive is confirmed and polled, and the block reads what the selectors choose.
+TEST(Ownership, ADriveAwaitingAResetIsShownAndRefusesRequestsThroughItsBlock) {
+    StackOptions options;
+    options.reset_pump = false;
+    Stack stack(options);
+    expect_read_block_set_up(stack);
+    ASSERT_TRUE(wait_until(
+        [&] { return stack.daemon_output().find("drive pump: awaiting a reset") != std::string::npos; }, 20s))
+        << stack.daemon_output();
+    const auto log = stack.daemon_output();
+    EXPECT_NE(log.find("the drive applies F875-F879 only after a reset: power-cycle it"), std::string::npos) << log;
+    const auto [list_status, list_out] = ctl(stack, {"list"});
+    EXPECT_EQ(list_status, 0) << list_out;
+    EXPECT_NE(list_out.find("awaiting reset"), std::string::npos) << list_out;
+    const auto [status, out] = ctl(stack, {"read", "pump", "0x1875", "5"});
+    EXPECT_EQ(status, kExitRejected) << out;
+    EXPECT_NE(out.find("the drive has not applied the indirect block's selectors yet (it awaits a reset"),
+              std::string::npos)
+        << out;
+    EXPECT_EQ(lines(out), 1U) << out;
+    // A register read on its own is no block: it goes through.
+    const auto [direct_status, direct_out] = ctl(stack, {"read", "pump", "FD01"});
+    EXPECT_EQ(direct_status, 0) << direct_out;
+
+    stack.power_cycle_pump();
+    const auto [online_status, online_out] = ctl(stack, {"list"});
+    EXPECT_EQ(online_status, 0) << online_out;
+    EXPECT_EQ(online_out.find("awaiting reset"), std::string::npos) << online_out;
+    const auto [block_status, block_out] = ctl(stack, {"--json", "read", "pump", "0x1875", "2"});
+    EXPECT_EQ(block_status, 0) << block_out;
+    // Slot 2 is FD01, the status word: ready (bit 14), as the drive holds it.
+    EXPECT_NE(block_out.find(std::to_string(stack.sim_register(1, "FD01"))), std::string::npos) << block_out;
+}
+
 // Finding 8: the Altivar 58's profile gives no stop word, so its lease can only hold; drivebusd
 // says so at start-up for that drive, and not for the Altivar 21 beside it.
 TEST(Ownership, DrivebusdWarnsAtStartUpOfADriveWhoseLeaseCanOnlyHold) {

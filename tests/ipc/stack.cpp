@@ -69,6 +69,58 @@ Stack::Stack(StackOptions options) {
                     10s)) {
         throw std::runtime_error("drivebusd did not come up: " + daemon_->output());
     }
+    if (options.reset_pump && config_text().find("indirect = true") != std::string::npos) {
+        if (!wait_until([&] { return daemon_->output().find("drive pump: awaiting a reset") != std::string::npos; },
+                        20s)) {
+            throw std::runtime_error("drivebusd never said the pump awaits a reset: " + daemon_->output());
+        }
+        // The read block confirms the reset: a power cycle without silence is enough.
+        if (const auto answer = sim_->command("power 1"); answer != "ok") {
+            throw std::runtime_error("drivebus-sim: power 1: " + answer);
+        }
+        wait_for_setup(1);
+    }
+}
+
+void Stack::wait_for_setup(std::size_t times) const {
+    const std::string holds = "drive pump: its set-up holds";
+    const auto count = [&] {
+        const std::string out = daemon_->output();
+        std::size_t n = 0;
+        for (auto at = out.find(holds); at != std::string::npos; at = out.find(holds, at + 1)) {
+            ++n;
+        }
+        return n;
+    };
+    if (!wait_until([&] { return count() >= times; }, 60s)) {
+        throw std::runtime_error("drivebusd never confirmed the pump's set-up: " + daemon_->output());
+    }
+}
+
+void Stack::power_cycle_pump() {
+    const auto before = daemon_->output();
+    const auto count = [](const std::string& text, const std::string& what) {
+        std::size_t n = 0;
+        for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) {
+            ++n;
+        }
+        return n;
+    };
+    const std::string absent = "drive pump (address 1): absent";
+    const std::size_t absences = count(before, absent);
+    const std::size_t confirmed = count(before, "drive pump: its set-up holds");
+    const auto must = [&](const std::string& line) {
+        if (const auto answer = sim_->command(line); answer.rfind("ok", 0) != 0) {
+            throw std::runtime_error("drivebus-sim: " + line + ": " + answer);
+        }
+    };
+    must("fault 1 drop=1");
+    if (!wait_until([&] { return count(daemon_->output(), absent) > absences; }, 30s)) {
+        throw std::runtime_error("drivebusd never found the silent pump absent: " + daemon_->output());
+    }
+    must("power 1");
+    must("clear 1");
+    wait_for_setup(confirmed + 1);
 }
 
 Stack::~Stack() {

@@ -21,6 +21,11 @@ struct StackOptions {
     bool paced = true;
     bool fan = true;         // the ATV58 at address 2
     std::string roudi = "embedded";
+    // The simulated ATV21 starts as from the factory, so drivebusd writes its block selectors,
+    // which it applies only after a reset (guide section 6): the stack then switches it off and
+    // on, as whoever commissions a drive does, and waits until drivebusd confirms its blocks.
+    // false: leave it awaiting the reset.
+    bool reset_pump = true;
 };
 
 class Stack {
@@ -45,10 +50,16 @@ public:
     [[nodiscard]] int daemon_pid() const noexcept { return daemon_->pid(); }
     // Stops drivebusd (SIGTERM) and returns its exit status.
     int stop_daemon();
+    // Switches the simulated pump off and on, silent meanwhile until drivebusd has found it
+    // absent; then waits until drivebusd has confirmed its set-up again.
+    void power_cycle_pump();
     // The configuration text drivebusd was started with.
     [[nodiscard]] std::string config_text() const;
 
 private:
+    // Waits until drivebusd has said `times` times that the pump's set-up holds.
+    void wait_for_setup(std::size_t times) const;
+
     std::filesystem::path dir_;
     std::filesystem::path config_;
     std::string bus_;

@@ -160,41 +160,145 @@ TEST_F(EngineTest, KeepsTheSilenceAndNoMoreWhenTheLineIsBusy) {
     }
 }
 
-TEST_F(EngineTest, IndirectBlockIsSetUpThenReadInOneTransaction) {
+// The ATV21 applies F875-F879 after a reset (guide section 6). Fresh from the factory they are 0:
+// each is read, written and read back; the block then still returns the old selection (every
+// slot 0, while FD01 reads "ready"), so the drive awaits a reset: published as such, values
+// invalid, its block never polled and refused to clients. Switched off and on, its block
+// returns what the selectors choose, told apart from the old selection, and it is polled in
+// one transaction.
+TEST_F(EngineTest, IndirectBlockIsSetUpConfirmedAfterAResetThenReadInOneTransaction) {
     add_pump(true);
     start();
-    line->run_for(500ms);
+    ASSERT_TRUE(
+        line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::AwaitingReset; }, 2s));
     const auto& sent = line->transmissions();
-    ASSERT_GE(sent.size(), 11U);
-    // F875-F879 are written first with the choices for FD00, FD01, FE03, FE05, FC91, each read
-    // back after its write.
+    ASSERT_GE(sent.size(), 15U);
+    // F875-F879 are read, written with the choices for FD00, FD01, FE03, FE05, FC91, read back.
     const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
     for (std::size_t i = 0; i < 5; ++i) {
-        EXPECT_EQ(sent[2 * i].adu[1], 0x06);
-        EXPECT_EQ(sent[2 * i + 1].adu[1], 0x03);
-        EXPECT_EQ(sent[2 * i + 1].adu[3], sent[2 * i].adu[3]) << "the selector just written is read back";
+        EXPECT_EQ(sent[3 * i].adu[1], 0x03);
+        EXPECT_EQ(sent[3 * i + 1].adu[1], 0x06);
+        EXPECT_EQ(sent[3 * i + 2].adu[1], 0x03);
+        EXPECT_EQ(sent[3 * i].adu[3], 0x75 + i);
+        EXPECT_EQ(sent[3 * i + 1].adu[3], sent[3 * i].adu[3]);
+        EXPECT_EQ(sent[3 * i + 2].adu[3], sent[3 * i].adu[3]) << "the selector just written is read back";
         EXPECT_EQ(drives.drive(1)->peek("F87" + std::to_string(5 + i)).value(), choices[i]);
     }
-    EXPECT_EQ(sent[10].adu[1], 0x03);
-    EXPECT_EQ(sent[10].adu[2], 0x18);
-    EXPECT_EQ(sent[10].adu[3], 0x75);
+    const auto& waiting = last("pump");
+    EXPECT_EQ(waiting.setup.kind, master::SetupNote::Kind::BlockDiffers);
+    EXPECT_EQ(waiting.setup.slot, 2);  // FD01: "ready" directly, 0 through the block
+    EXPECT_EQ(waiting.setup.reg, 0xFD01);
+    EXPECT_EQ(waiting.setup.held, 0);
+    for (const auto& [address, v] : waiting.registers) {
+        EXPECT_FALSE(v.valid) << "register " << address;
+    }
+    master::ClientRequest through_block;
+    through_block.client = 7;
+    through_block.correlation = 1;
+    through_block.request = {1, rtu::ReadHoldingRegisters{0x1875, 5}};
+    EXPECT_EQ(engine->submit(through_block).error(), master::SubmitError::BlockUnconfirmed);
+    // No poll while it waits: only the set-up, tried again with back-off, reads the block.
+    line->run_for(3s);
+    EXPECT_EQ(last("pump").health, Health::AwaitingReset);
+    const std::size_t before_reset = sent.size();
+
+    drives.drive(1)->power_cycle(line->now());
+    ASSERT_TRUE(line->run_until_true([&] { return last("pump").health == Health::Online; }, 70s));
+    for (std::size_t i = before_reset; i < sent.size(); ++i) {
+        EXPECT_NE(sent[i].adu[1], 0x06) << "nothing is written again: the selectors hold";
+    }
+    line->run_for(500ms);
     const auto& pump = last("pump");
-    EXPECT_EQ(pump.health, master::Health::Online);
     EXPECT_EQ(pump.registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
+    EXPECT_NE(pump.registers.at(0xFD01).value, 0);
     EXPECT_TRUE(pump.registers.at(0xFC91).valid);
+    EXPECT_EQ(sent.back().adu[1], 0x03);
+    EXPECT_TRUE(engine->submit(through_block).has_value());
+    expect_silences_kept();
 }
 
-// A set-up write the drive refuses leaves it unconfigured: published as such, not polled (its
-// block would return what the old selectors choose), and set up again with back-off until the
-// write holds.
+// drivebusd restarted on a drive it set up before: every selector already holds, so nothing is
+// written (the drive keeps them in EEPROM), and the block is confirmed and polled at once.
+TEST_F(EngineTest, SelectorsThatAlreadyHoldAreNotWrittenAgain) {
+    add_pump(true);
+    const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
+    for (std::size_t i = 0; i < 5; ++i) {
+        ASSERT_TRUE(drives.drive(1)->poke("F87" + std::to_string(5 + i), choices[i]).has_value());
+    }
+    drives.drive(1)->power_cycle(kStart);
+    start();
+    ASSERT_TRUE(line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::Online; }, 2s));
+    line->run_for(300ms);
+    for (const auto& t : line->transmissions()) {
+        EXPECT_NE(t.adu[1], 0x06);
+    }
+    EXPECT_EQ(last("pump").registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
+}
+
+// drivebusd restarted after writing the selectors, and the drive not reset since: the
+// selectors read as wanted, but the block returns the old selection. Unconfigured, said why.
+TEST_F(EngineTest, SelectorsStoredButNotAppliedLeaveTheDriveUnconfigured) {
+    add_pump(true);
+    const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
+    for (std::size_t i = 0; i < 5; ++i) {
+        ASSERT_TRUE(drives.drive(1)->poke("F87" + std::to_string(5 + i), choices[i]).has_value());
+    }
+    start();
+    ASSERT_TRUE(
+        line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::Unconfigured; }, 2s));
+    EXPECT_EQ(last("pump").setup.kind, master::SetupNote::Kind::BlockDiffers);
+    // Switched off and on, it applies them: the next try confirms the block.
+    drives.drive(1)->power_cycle(line->now());
+    ASSERT_TRUE(line->run_until_true([&] { return last("pump").health == Health::Online; }, 70s));
+}
+
+// A drive switched off and on while polled (silent, then answering again) has its set-up read
+// again and its block confirmed before anything read through it is published.
+TEST_F(EngineTest, ADriveBackFromAbsenceHasItsBlockConfirmedAgain) {
+    add_pump(true);
+    start();
+    ASSERT_TRUE(
+        line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::AwaitingReset; }, 2s));
+    drives.drive(1)->power_cycle(line->now());
+    ASSERT_TRUE(line->run_until_true([&] { return last("pump").health == Health::Online; }, 70s));
+    ASSERT_TRUE(drives.faults().apply(1, "drop=1").has_value());
+    ASSERT_TRUE(line->run_until_true([&] { return last("pump").health == Health::Absent; }, 5s));
+    drives.drive(1)->power_cycle(line->now());
+    drives.faults().clear(std::nullopt);
+    const std::size_t back_from = line->transmissions().size();
+    ASSERT_TRUE(line->run_until_true(
+        [&] { return last("pump").health == Health::Online && last("pump").registers.at(0xFD01).valid; }, 70s));
+    // The selectors were read again and the block read on its own terms before the polls.
+    std::size_t selector_reads = 0;
+    std::size_t direct_fd01 = 0;
+    for (std::size_t i = back_from; i < line->transmissions().size(); ++i) {
+        const auto& adu = line->transmissions()[i].adu;
+        selector_reads += adu[1] == 0x03 && adu[2] == 0x08 && adu[3] >= 0x75 && adu[3] <= 0x79 ? 1U : 0U;
+        direct_fd01 += adu[1] == 0x03 && adu[2] == 0xFD && adu[3] == 0x01 ? 1U : 0U;
+    }
+    EXPECT_GE(selector_reads, 5U);
+    EXPECT_GE(direct_fd01, 1U);
+    EXPECT_EQ(last("pump").registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
+}
+
+// A set-up read the drive refuses leaves it unconfigured: published as such, not polled (its
+// block would return what the old selectors choose), and set up again with back-off until it
+// holds.
 TEST_F(EngineTest, ADriveWhoseSetUpFailsIsUnconfiguredUntilItHolds) {
     add_pump(true);
+    const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
+    for (std::size_t i = 0; i < 5; ++i) {
+        ASSERT_TRUE(drives.drive(1)->poke("F87" + std::to_string(5 + i), choices[i]).has_value());
+    }
+    drives.drive(1)->power_cycle(kStart);
     ASSERT_TRUE(drives.faults().apply(1, "exception=4").has_value());
     start();
     line->run_for(500ms);
     ASSERT_FALSE(snapshots.empty());
     const auto& failed = last("pump");
     EXPECT_EQ(failed.health, master::Health::Unconfigured);
+    EXPECT_EQ(failed.setup.kind, master::SetupNote::Kind::Refused);
+    EXPECT_EQ(failed.setup.exception, 4);
     for (const auto& [address, v] : failed.registers) {
         EXPECT_FALSE(v.valid) << "register " << address;
     }

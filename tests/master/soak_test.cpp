@@ -184,6 +184,12 @@ public:
 
         drives_.add(sim::make_drive(kPump, atv21_));
         drives_.add(sim::make_drive(kFan, atv58_));
+        // A pump commissioned before: its block selectors hold what drivebusd wants and are in
+        // effect (they apply after a reset; EngineTest covers the first set-up).
+        for (const auto& [reg, value] : setup_[kPump]) {
+            (void)drives_.drive(kPump)->poke(atv21_->find(reg)->name, value);
+        }
+        drives_.drive(kPump)->power_cycle(kStart);
         for (const char* name : kPumpReads) {
             track(kPump, name);
         }

@@ -174,13 +174,18 @@ if mb_write 1 0xFA01 6000; then
 fi
 
 # ---- ATV21: read indirect block ----------------------------------------------------------------
-case_name="ATV21 indirect block 0x1875 x5"
+case_name="ATV21 indirect block 0x1875 x5, in effect after a power cycle"
 for i in 1 2 3 4 5; do
     reg=$((0x0874 + i))
     if mb_write 1 "$reg" "$i"; then
         ctl_get 1 "F87$((4 + i))" && expect_eq "F87$((4 + i)) after the FC06 write" "$CTL" "$i"
     fi
 done
+# F875-F879 take effect after a reset (guide section 6): until then the block selects nothing.
+if mb_read 1 0x1875 5; then
+    expect_eq "block before a reset" "${MB_VALUES[*]}" "0 0 0 0 0"
+fi
+ctl power 1
 fd00='' fd01=''
 mb_read 1 0xFD00 1 && fd00=${MB_VALUES[0]}
 mb_read 1 0xFD01 1 && fd01=${MB_VALUES[0]}

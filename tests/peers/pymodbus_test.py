@@ -164,10 +164,13 @@ def case_fc16_fa01(peer):
 
 
 def case_indirect_block(peer):
-    """ATV21: F875..F879 = 1..5 by FC06, then the read block 0x1875 x5."""
+    """ATV21: F875..F879 = 1..5 by FC06, a power cycle, then the read block 0x1875 x5."""
     for slot in range(5):
         peer.write_single(ATV21, F875 + slot, slot + 1)
         expect_eq(f"F87{5 + slot} in the simulator", ctl_get(ATV21, f"F87{5 + slot}"), slot + 1)
+    # In effect after a reset (guide section 6): until then the block selects nothing.
+    expect_eq("block before a reset", peer.read(ATV21, READ_BLOCK, 5), [0, 0, 0, 0, 0])
+    ctl(f"power {ATV21}")
     fd00 = peer.read(ATV21, FD00, 1)[0]
     fd01 = peer.read(ATV21, FD01, 1)[0]
     block = peer.read(ATV21, READ_BLOCK, 5)

@@ -43,6 +43,9 @@ TEST_F(Atv21, ReadIndirectBlockFollowsTheSelectors) {
     for (std::uint16_t i = 0; i < 5; ++i) {
         write(static_cast<std::uint16_t>(0x0875 + i), static_cast<std::uint16_t>(i + 1), 0.0);
     }
+    // In effect after a reset (section 6): switched off and on.
+    drive.power_cycle(at(0.0));
+    write(0x0803, 0, 0.0);
     write(0xFA01, 6000, 0.0);
     write(0xFA00, kRunForwardWithPriority, 0.0);
     const auto t = at(20.0);
@@ -58,6 +61,50 @@ TEST_F(Atv21, ReadIndirectBlockFollowsTheSelectors) {
     // Two words: the first two selections.
     const auto two = ask(drive, rtu::ReadHoldingRegisters{0x1875, 2}, t);
     EXPECT_EQ(std::get<rtu::ReadHoldingRegistersResponse>(two).values[1], 6000);
+}
+
+// Section 6: F870-F879 are "Après réinitialisation": written, they read back at once, but
+// the blocks keep their selection until the drive is powered up again or reset after a fault.
+TEST_F(Atv21, BlockSelectorsTakeEffectOnlyAfterAResetOrAPowerCycle) {
+    write(0xFA01, 3000, 0.0);
+    write(0xFA00, kRunForwardWithPriority, 0.0);
+    write(0x0875, 2, 0.0);  // FD00
+    write(0x0876, 1, 0.0);  // FD01
+    write(0x0870, 3, 0.0);  // FA01
+    write(0x0871, 1, 0.0);  // FA00
+    EXPECT_EQ(read_one(drive, 0x0875, at(1.0)), 2);
+    const rtu::ReadHoldingRegisters read_block{0x1875, 2};
+    EXPECT_EQ(std::get<rtu::ReadHoldingRegistersResponse>(ask(drive, read_block, at(10.0))).values,
+              (rtu::RegisterValues{0, 0}));
+    EXPECT_EQ(exception_of(ask(drive, rtu::WriteMultipleRegisters{0x1870, {2000, 0xC400}}, at(10.0))),
+              ExceptionCode::ServerDeviceFailure);  // F870 = 0 still
+    // A reset after a fault applies them.
+    write(0xFA00, kRunForwardWithPriority | (1U << 12), 10.0);  // emergency stop: fault E
+    write(0xFA00, 0xC000 | (1U << 13), 11.0);                   // fault reset
+    write(0xFA00, kRunForwardWithPriority, 11.0);
+    const auto after_reset = std::get<rtu::ReadHoldingRegistersResponse>(ask(drive, read_block, at(20.0))).values;
+    EXPECT_EQ(after_reset[0], read_one(drive, 0xFD00, at(20.0)));
+    EXPECT_EQ(after_reset[1], read_one(drive, 0xFD01, at(20.0)));
+    EXPECT_GT(after_reset[0], 0);
+    // A fault reset bit with no fault is no reset: a later change waits.
+    write(0x0875, 1, 20.0);
+    write(0xFA00, 0xC000 | (1U << 13), 20.0);
+    EXPECT_EQ(std::get<rtu::ReadHoldingRegistersResponse>(ask(drive, read_block, at(20.0))).values[0],
+              read_one(drive, 0xFD00, at(20.0)));
+    // Switched off and on: RAM parameters (section 8.2) start over, the selectors apply.
+    drive.power_cycle(at(21.0));
+    write(0x0803, 0, 21.0);
+    EXPECT_EQ(read_one(drive, 0xFA00, at(21.0)), 0);
+    EXPECT_EQ(read_one(drive, 0xFA01, at(21.0)), 0);
+    EXPECT_EQ(read_one(drive, 0xFD00, at(21.0)), 0);
+    const auto powered = std::get<rtu::ReadHoldingRegistersResponse>(ask(drive, read_block, at(21.0))).values;
+    EXPECT_EQ(powered[0], read_one(drive, 0xFD01, at(21.0)));
+    EXPECT_NE(powered[0], 0);  // ready
+    // The write block now writes FA01 then FA00.
+    EXPECT_EQ(ask(drive, rtu::WriteMultipleRegisters{0x1870, {2000, 0xC400}}, at(21.0)),
+              rtu::Response(rtu::WriteMultipleRegistersResponse{0x1870, 2}));
+    EXPECT_EQ(read_one(drive, 0xFA01, at(21.0)), 2000);
+    EXPECT_EQ(read_one(drive, 0xFA00, at(21.0)), 0xC400);
 }
 
 TEST_F(Atv21, ReadIndirectBlockErrors) {
@@ -93,6 +140,8 @@ TEST_F(Atv21, WriteIndirectBlock) {
     EXPECT_EQ(exception_of(ask(drive, block, at(0))), ExceptionCode::ServerDeviceFailure);  // F870 = 0
     write(0x0870, 1, 0.0);
     write(0x0871, 3, 0.0);
+    drive.power_cycle(at(0.0));  // in effect after a reset (section 6)
+    write(0x0803, 0, 0.0);
     EXPECT_EQ(ask(drive, block, at(0)), rtu::Response(rtu::WriteMultipleRegistersResponse{0x1870, 2}));
     EXPECT_EQ(read_one(drive, 0xFA00, at(0)), kRunForwardWithPriority);
     EXPECT_EQ(read_one(drive, 0xFA01, at(0)), 0x1770);

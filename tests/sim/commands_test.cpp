@@ -58,6 +58,22 @@ TEST_F(Commands, GetAndSetRegisters) {
     EXPECT_EQ(run("set 1 FA01 70000").rfind("error: '70000' is not a 16-bit value", 0), 0U);
 }
 
+// power: the drive is switched off and on; the Altivar 21 forgets its RAM parameters and
+// applies the block selectors it stores; another drive keeps its registers.
+TEST_F(Commands, PowerCycleADrive) {
+    EXPECT_EQ(run("set 1 FA01 3000"), "ok");
+    EXPECT_EQ(run("set 1 F875 2"), "ok");
+    EXPECT_EQ(run("set 2 W453 77"), "ok");
+    EXPECT_EQ(run("power 1"), "ok");
+    EXPECT_EQ(run("power 2"), "ok");
+    EXPECT_EQ(run("get 1 FA01"), "ok 0");
+    EXPECT_EQ(run("get 1 F875"), "ok 2");
+    EXPECT_EQ(run("get 2 W453"), "ok 77");
+    EXPECT_EQ(run("power 9"), "error: no simulated drive at address 9");
+    EXPECT_EQ(run("power *"), "error: '*' is not a slave address (1-247)");
+    EXPECT_EQ(run("power").rfind("error: cannot parse", 0), 0U);
+}
+
 TEST_F(Commands, DriveOptions) {
     EXPECT_EQ(run("option 1 load=80"), "ok");
     EXPECT_EQ(run("option 2 load=80"), "error: drive 2 (atv58) has no option 'load'");
