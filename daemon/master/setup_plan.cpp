@@ -43,7 +43,7 @@ SetupPlan::SetupPlan(rtu::SlaveAddress address, const Profile& profile, const st
             if (!slot.selector) {
                 continue;
             }
-            selectors_.push_back({*slot.selector, slot.value, block->selectors_after_reset});
+            selectors_.push_back({*slot.selector, slot.value, block->selectors_after_reset, std::nullopt});
             if (b.function == 3 && slot.target) {
                 slots_.push_back({position, *slot.target, *slot.selector});
                 last = position + 1;
@@ -54,7 +54,28 @@ SetupPlan::SetupPlan(rtu::SlaveAddress address, const Profile& profile, const st
             read_quantity_ = static_cast<std::uint16_t>(std::max<std::size_t>(last, block->min_quantity));
         }
     }
+    // At most each slot's register and the one its selection before chose.
+    direct_.reserve(2 * slots_.size());
+    read_.reserve(2 * slots_.size());
+    first_.reserve(read_quantity_);
+    second_.reserve(read_quantity_);
     restart();
+}
+
+const SetupPlan::Selector* SetupPlan::selector(std::uint16_t reg) const noexcept {
+    const auto it = std::ranges::find(selectors_, reg, &Selector::reg);
+    return it != selectors_.end() ? &*it : nullptr;
+}
+
+std::uint16_t SetupPlan::direct_value(std::uint16_t reg) const noexcept {
+    const auto it = std::ranges::find(direct_, reg);
+    const auto i = static_cast<std::size_t>(it - direct_.begin());
+    return i < read_.size() ? read_[i] : 0;
+}
+
+std::uint16_t SetupPlan::first_before() const noexcept {
+    const auto it = std::ranges::find_if(selectors_, [](const Selector& s) { return s.before.has_value(); });
+    return it != selectors_.end() ? it->reg : 0;
 }
 
 void SetupPlan::restart() noexcept {
@@ -68,11 +89,15 @@ void SetupPlan::restart() noexcept {
 }
 
 void SetupPlan::reset_seen() noexcept {
-    const bool block_can_tell =
-        std::ranges::any_of(slots_, [&](const Slot& slot) { return before_.contains(slot.selector); });
+    const bool block_can_tell = std::ranges::any_of(slots_, [&](const Slot& slot) {
+        const Selector* s = selector(slot.selector);
+        return s != nullptr && s->before.has_value();
+    });
     if (!block_can_tell) {
         awaiting_reset_ = false;
-        before_.clear();
+        for (Selector& s : selectors_) {
+            s.before.reset();
+        }
     }
 }
 
@@ -105,7 +130,7 @@ SetupState SetupPlan::take(const Result& result) {
     switch (phase_) {
     case Phase::ReadSelector:
     case Phase::ReadBack: {
-        const Selector& sel = selectors_[index_];
+        Selector& sel = selectors_[index_];
         const auto value = word(result);
         if (!value) {
             return refused(sel.reg, sel.wanted);
@@ -116,8 +141,8 @@ SetupState SetupPlan::take(const Result& result) {
             }
             // The selection in effect until the drive is reset is the one before drivebusd's
             // first write: a later write does not change it.
-            if (sel.after_reset && !before_.contains(sel.reg)) {
-                before_[sel.reg] = *value;
+            if (sel.after_reset && !sel.before) {
+                sel.before = *value;
             }
             phase_ = Phase::WriteSelector;
             return state_;
@@ -158,7 +183,7 @@ SetupState SetupPlan::take(const Result& result) {
         if (!value) {
             return refused(direct_[index_], 0);
         }
-        read_[direct_[index_]] = *value;
+        read_.push_back(*value);
         if (++index_ >= direct_.size()) {
             phase_ = Phase::BlockAgain;
         }
@@ -172,8 +197,7 @@ SetupState SetupPlan::take(const Result& result) {
 void SetupPlan::after_selectors() {
     if (read_block_ == nullptr) {
         if (awaiting_reset_) {
-            finish(SetupState::AwaitingReset,
-                   {SetupNote::Kind::NotApplied, before_.empty() ? std::uint16_t{0} : before_.begin()->first});
+            finish(SetupState::AwaitingReset, {SetupNote::Kind::NotApplied, first_before()});
         } else {
             finish(SetupState::Done);
         }
@@ -191,16 +215,17 @@ void SetupPlan::after_selectors() {
             add(*before);
         }
     }
+    read_.clear();
     phase_ = Phase::Block;
     round_ = 0;
 }
 
 std::optional<std::uint16_t> SetupPlan::previous_target(const Slot& slot) const {
-    const auto before = before_.find(slot.selector);
-    if (before == before_.end()) {
+    const Selector* s = selector(slot.selector);
+    if (s == nullptr || !s->before) {
         return std::nullopt;
     }
-    const auto choice = read_block_->choices.find(before->second);
+    const auto choice = read_block_->choices.find(*s->before);
     if (choice == read_block_->choices.end()) {
         return std::nullopt;  // it selected nothing: the slot read 0
     }
@@ -228,12 +253,13 @@ bool SetupPlan::agrees(std::uint16_t reg, std::uint16_t value, std::size_t posit
 
 SetupState SetupPlan::judge() {
     for (const Slot& slot : slots_) {
-        const std::uint16_t direct = read_.at(slot.reg);
+        const std::uint16_t direct = direct_value(slot.reg);
         if (agrees(slot.reg, direct, slot.position)) {
             continue;
         }
         if (++round_ < kRounds) {
             phase_ = Phase::Block;  // a value that moved too fast: read again
+            read_.clear();
             return state_;
         }
         const SetupNote note{SetupNote::Kind::BlockDiffers,
@@ -252,24 +278,26 @@ SetupState SetupPlan::judge() {
     bool told = false;
     bool block_waits = false;
     for (const Slot& slot : slots_) {
-        if (!before_.contains(slot.selector)) {
+        const Selector* s = selector(slot.selector);
+        if (s == nullptr || !s->before) {
             continue;
         }
         block_waits = true;
         const auto before = previous_target(slot);
-        const std::uint16_t old_value = before ? read_.at(*before) : 0;
+        const std::uint16_t old_value = before ? direct_value(*before) : 0;
         told = told || !agrees(slot.reg, old_value, slot.position);
     }
     if (!block_waits) {
         // Only selectors the block cannot show were written (the write block's).
-        return finish(SetupState::AwaitingReset,
-                      {SetupNote::Kind::NotApplied, before_.empty() ? std::uint16_t{0} : before_.begin()->first});
+        return finish(SetupState::AwaitingReset, {SetupNote::Kind::NotApplied, first_before()});
     }
     if (!told) {
         return finish(SetupState::AwaitingReset, {SetupNote::Kind::CannotTell, 0, 0, 0, read_block_->address});
     }
     awaiting_reset_ = false;
-    before_.clear();
+    for (Selector& sel : selectors_) {
+        sel.before.reset();
+    }
     return finish(SetupState::Done);
 }
 

@@ -9,10 +9,11 @@
 // slot whose value differs between them), or it proves nothing.
 //
 // Pure: the scheduler sends the requests and hands back each result; time is not involved.
+// Everything is sized at construction: the bus thread allocates nothing to run it, however
+// often a drive that awaits a reset is tried again.
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <optional>
 #include <vector>
 
@@ -57,6 +58,9 @@ private:
         std::uint16_t reg = 0;
         std::uint16_t wanted = 0;
         bool after_reset = false;
+        // The value it held before drivebusd's first write, while that write awaits a reset:
+        // the selection still in effect.
+        std::optional<std::uint16_t> before;
     };
     struct Slot {
         std::size_t position = 0;    // in the block, from 0
@@ -73,6 +77,9 @@ private:
     // exactly when it holds still.
     [[nodiscard]] bool agrees(std::uint16_t reg, std::uint16_t value, std::size_t slot) const;
     [[nodiscard]] std::optional<std::uint16_t> previous_target(const Slot& slot) const;
+    [[nodiscard]] const Selector* selector(std::uint16_t reg) const noexcept;
+    [[nodiscard]] std::uint16_t direct_value(std::uint16_t reg) const noexcept;
+    [[nodiscard]] std::uint16_t first_before() const noexcept;
 
     rtu::SlaveAddress address_ = 0;
     const Profile* profile_ = nullptr;
@@ -82,19 +89,17 @@ private:
     std::vector<Slot> slots_;
     std::uint16_t read_quantity_ = 0;
     // Registers read on their own to confirm the block: the slots' and those the selection
-    // before would have given (while a reset is awaited).
+    // before would have given (while a reset is awaited); what they read, in the same order.
     std::vector<std::uint16_t> direct_;
+    std::vector<std::uint16_t> read_;
 
     Phase phase_ = Phase::End;
     std::size_t index_ = 0;
     unsigned round_ = 0;
     SetupState state_ = SetupState::Running;
     SetupNote note_;
-    std::vector<std::uint16_t> first_, second_;    // the two readings through the block
-    std::map<std::uint16_t, std::uint16_t> read_;  // the direct readings
-    bool wrote_after_reset_ = false;
+    std::vector<std::uint16_t> first_, second_;  // the two readings through the block
     bool awaiting_reset_ = false;
-    std::map<std::uint16_t, std::uint16_t> before_;  // selector -> its value before drivebusd wrote it
 };
 
 }  // namespace drivebus::master
