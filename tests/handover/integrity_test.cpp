@@ -1,6 +1,7 @@
 // A property test of the daemon's control integrity: random sequences of client requests (any
 // register, any block, any selector value, several clients honest and not, leases taken, taken
-// over, renewed, released and lost to a hung client) go through the intake's decisions
+// over, renewed, released and lost to a hung client; the drive switched off and on now and then)
+// go through the intake's decisions
 // (admission, the lease policy, the pending book), the bus thread's desk and the bus engine,
 // onto a virtual line with the simulated drives. No RouDi and no threads: one clock, so every
 // run of a seed is the same. Two properties are checked against the simulator's own truth:
@@ -124,6 +125,18 @@ public:
                     (void)leases_->fallback_done(f.drive, master::Outcome::BusDown, true);
                 }
             }
+            // Now and then the pump is switched off (silent) and on again: drivebusd finds it
+            // absent, then sets it up and confirms its block again while the clients go on.
+            if (!off_until_ && chance(0.004)) {
+                ASSERT_TRUE(drives_.faults().apply(1, "drop=1").has_value());
+                off_until_ = now + std::chrono::milliseconds(pick(300, 1500));
+            } else if (off_until_ && now >= *off_until_) {
+                drives_.drive(1)->power_cycle(now);
+                (void)drives_.drive(1)->poke("F803", 0);
+                drives_.faults().clear(1);
+                off_until_.reset();
+                ++power_cycles_;
+            }
             for (std::size_t c = 0; c < clients_.size(); ++c) {
                 if (!clients_[c].waiting && now >= clients_[c].hung_until && chance(0.5)) {
                     act(c, now);
@@ -134,8 +147,20 @@ public:
             line_->run_for(std::chrono::milliseconds(pick(1, 30)));
             collect();
         }
-        line_->run_for(2s);
-        collect();
+        // The pump back on, and every request in flight answered (a request to a silent
+        // drive takes its time-out and retries: they wait their turn).
+        if (off_until_) {
+            drives_.drive(1)->power_cycle(line_->now());
+            drives_.faults().clear(1);
+            off_until_.reset();
+        }
+        const rtu::Instant deadline = line_->now() + 60s;
+        while (std::ranges::any_of(clients_, &Client::waiting) && line_->now() < deadline) {
+            desk_->take_requests();
+            desk_->retry_fallbacks(line_->now());
+            line_->run_for(50ms);
+            collect();
+        }
     }
 
     // The checks that need the whole run: the lease model, then the drive's write log.
@@ -170,7 +195,8 @@ public:
                std::to_string(references_landed_) + " references landed; commands valid " +
                std::to_string(verdicts[Verdict::Valid]) + ", invalid " + std::to_string(verdicts[Verdict::Invalid]) +
                ", uncertain " + std::to_string(verdicts[Verdict::Uncertain]) + "; grants " + std::to_string(grants_) +
-               ", expiries " + std::to_string(leases_->expiries());
+               ", expiries " + std::to_string(leases_->expiries()) + ", power cycles " +
+               std::to_string(power_cycles_);
     }
 
     [[nodiscard]] std::size_t snapshot_values() const noexcept { return snapshot_values_; }
@@ -180,6 +206,7 @@ public:
         return static_cast<std::size_t>(std::ranges::count(sent_, Verdict::Invalid, &Sent::verdict));
     }
     [[nodiscard]] std::uint64_t expiries() const { return leases_->expiries(); }
+    [[nodiscard]] std::size_t power_cycles() const noexcept { return power_cycles_; }
 
 private:
     bool chance(double p) { return std::uniform_real_distribution<double>(0.0, 1.0)(rng_) < p; }
@@ -438,7 +465,11 @@ private:
         rtu::Instant last{};
         bool uncertain = false;
         for (Sent& s : sent_) {
-            ASSERT_TRUE(s.answered) << "seed " << seed_ << ": a request never answered";
+            ASSERT_TRUE(s.answered) << "seed " << seed_ << ": a request never answered: " << clients_[s.client].name
+                                    << " kind " << int(s.request.kind) << " at 0x" << std::hex << s.request.start
+                                    << std::dec << " count " << s.request.count << ", sent at line time "
+                                    << std::chrono::duration<double>(s.accepted - kStart).count() << " s of "
+                                    << std::chrono::duration<double>(line_->now() - kStart).count();
             const rtu::Instant t = s.accepted;
             if (holder && !uncertain) {
                 const auto idle = t - last;
@@ -523,6 +554,8 @@ private:
     std::size_t unverifiable_ = 0;
     std::size_t references_landed_ = 0;
     std::size_t grants_ = 0;
+    std::optional<rtu::Instant> off_until_;
+    std::size_t power_cycles_ = 0;
 };
 
 std::uint64_t seed_from_env(std::uint64_t fallback) {
@@ -543,6 +576,7 @@ TEST(Integrity, RandomClientsNeverCorruptAValueNorCommandADriveWithoutTheLease) 
         EXPECT_GT(run.references_landed(), 50U) << run.summary();
         EXPECT_GT(run.invalid_commands(), 50U) << run.summary();
         EXPECT_GT(run.expiries(), 0U) << run.summary();
+        EXPECT_GT(run.power_cycles(), 0U) << run.summary();
         if (::testing::Test::HasFailure()) {
             break;
         }
