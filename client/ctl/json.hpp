@@ -1,25 +1,23 @@
-// A small JSON value for drivebusctl --json: objects keep their keys in insertion order, and
-// dump() writes one line.
+// drivebusctl --json values: nlohmann-json's ordered_json (keys keep their insertion order),
+// behind the few calls the commands use, and written on one line. A whole number stored as a
+// double is written as an integer ("30", not "30.0"); NaN and infinities as null; invalid
+// UTF-8 (a device name, say) replaced rather than thrown about.
 #pragma once
 
+#include <nlohmann/json.hpp>
+
+#include <cmath>
 #include <concepts>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
-#include <variant>
-#include <vector>
 
 namespace drivebus::ctl {
 
-// `text` as a JSON string, quotes included: ", \ and control characters escaped.
-[[nodiscard]] std::string json_quote(std::string_view text);
-
 class Json {
 public:
-    using Array = std::vector<Json>;
-    using Object = std::vector<std::pair<std::string, Json>>;
-
     Json() = default;  // null
     Json(std::nullptr_t) {}
     Json(bool value) : value_(value) {}
@@ -32,27 +30,46 @@ public:
             value_ = static_cast<std::uint64_t>(value);
         }
     }
-    Json(double value) : value_(value) {}
+    Json(double value) {
+        if (!std::isfinite(value)) {
+            value_ = nullptr;
+        } else if (std::trunc(value) == value && std::abs(value) < 9.0e15) {
+            value_ = static_cast<std::int64_t>(value);
+        } else {
+            value_ = value;
+        }
+    }
     Json(std::string value) : value_(std::move(value)) {}
     Json(std::string_view value) : value_(std::string(value)) {}
     Json(const char* value) : value_(std::string(value)) {}
 
-    [[nodiscard]] static Json object() { return Json(Object{}); }
-    [[nodiscard]] static Json array() { return Json(Array{}); }
+    [[nodiscard]] static Json object() { return Json(nlohmann::ordered_json::object()); }
+    [[nodiscard]] static Json array() { return Json(nlohmann::ordered_json::array()); }
 
     // Adds a key to an object (replacing one of that name).
-    Json& set(std::string_view key, Json value);
+    Json& set(std::string_view key, Json value) {
+        if (!value_.is_object()) {
+            throw std::logic_error("Json::set on a value that is not an object");
+        }
+        value_[std::string(key)] = std::move(value.value_);
+        return *this;
+    }
     // Appends to an array.
-    Json& push(Json value);
+    Json& push(Json value) {
+        if (!value_.is_array()) {
+            throw std::logic_error("Json::push on a value that is not an array");
+        }
+        value_.push_back(std::move(value.value_));
+        return *this;
+    }
 
-    [[nodiscard]] std::string dump() const;
+    [[nodiscard]] std::string dump() const {
+        return value_.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+    }
 
 private:
-    explicit Json(Object value) : value_(std::move(value)) {}
-    explicit Json(Array value) : value_(std::move(value)) {}
-    void dump(std::string& out) const;
-    std::variant<std::nullptr_t, bool, std::int64_t, std::uint64_t, double, std::string, Array, Object> value_{
-        nullptr};
+    explicit Json(nlohmann::ordered_json value) : value_(std::move(value)) {}
+    nlohmann::ordered_json value_;
 };
 
 }  // namespace drivebus::ctl

@@ -15,7 +15,7 @@
 #include <sstream>
 #include <thread>
 
-#include "mini_json.hpp"
+#include "read_json.hpp"
 #include "stack.hpp"
 
 namespace drivebus::test {

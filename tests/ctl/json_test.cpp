@@ -1,21 +1,26 @@
-// drivebusctl's JSON writer: escaping, numbers, order of keys; what it writes reads back.
+// drivebusctl's JSON values (nlohmann-json underneath): escaping, numbers, order of keys; what it
+// writes reads back.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "json.hpp"
-#include "mini_json.hpp"
+#include "read_json.hpp"
 
 namespace drivebus::ctl {
 namespace {
 
 TEST(CtlJson, StringsAreEscaped) {
-    EXPECT_EQ(json_quote("plain"), "\"plain\"");
-    EXPECT_EQ(json_quote("a\"b\\c"), "\"a\\\"b\\\\c\"");
-    EXPECT_EQ(json_quote("line\nnext\ttab\r"), "\"line\\nnext\\ttab\\r\"");
-    EXPECT_EQ(json_quote(std::string("\x01\x1f\x7f", 3)), "\"\\u0001\\u001f\\u007f\"");
-    EXPECT_EQ(json_quote("30 °C"), "\"30 °C\"");  // UTF-8 passes through
-    EXPECT_EQ(json_quote(""), "\"\"");
+    const auto quote = [](std::string_view text) { return Json(text).dump(); };
+    EXPECT_EQ(quote("plain"), "\"plain\"");
+    EXPECT_EQ(quote("a\"b\\c"), "\"a\\\"b\\\\c\"");
+    EXPECT_EQ(quote("line\nnext\ttab\r"), "\"line\\nnext\\ttab\\r\"");
+    EXPECT_EQ(quote(std::string("\x01\x1f", 2)), "\"\\u0001\\u001f\"");
+    EXPECT_EQ(quote("30 °C"), "\"30 °C\"");  // UTF-8 passes through
+    EXPECT_EQ(quote(""), "\"\"");
+    // Not UTF-8 (a device name can be any bytes): replaced, still one valid document.
+    const auto odd = quote(std::string("tty\xff", 4));
+    EXPECT_EQ(test::json::parse(odd).str(), "tty\xEF\xBF\xBD");
 }
 
 TEST(CtlJson, ValuesAndNesting) {

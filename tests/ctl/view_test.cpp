@@ -2,7 +2,7 @@
 // no daemon.
 #include <gtest/gtest.h>
 
-#include "mini_json.hpp"
+#include "read_json.hpp"
 #include "table.hpp"
 #include "view.hpp"
 
