@@ -1,5 +1,7 @@
 #include "faults.hpp"
 
+#include "duration.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -47,29 +49,15 @@ std::pair<std::string_view, std::string_view> split_colon(std::string_view text)
 
 }  // namespace
 
-std::expected<rtu::Duration, std::string> parse_duration(std::string_view text) {
-    struct Unit {
-        std::string_view suffix;
-        double nanoseconds;
-    };
-    static constexpr Unit kUnits[] = {{"ns", 1.0}, {"us", 1e3}, {"ms", 1e6}, {"s", 1e9}};
-    double scale = 1e6;
-    std::string_view number = text;
-    for (const Unit& unit : kUnits) {
-        if (text.ends_with(unit.suffix)) {
-            const auto head = text.substr(0, text.size() - unit.suffix.size());
-            if (!head.empty() && (std::isdigit(static_cast<unsigned char>(head.back())) != 0 || head.back() == '.')) {
-                number = head;
-                scale = unit.nanoseconds;
-                break;
-            }
-        }
+std::expected<rtu::Duration, std::string> option_duration(std::string_view text) {
+    const auto d = drivebus::parse_duration(text);
+    if (!d) {
+        return std::unexpected("'" + std::string(text) + "' " + d.error());
     }
-    auto value = parse_number("duration", number);
-    if (!value || *value < 0.0 || *value * scale > 3600e9) {
-        return std::unexpected("'" + std::string(text) + "' is not a duration such as 250us, 2ms or 1s (0 to 1 hour)");
+    if (*d > std::chrono::hours(1)) {
+        return std::unexpected("'" + std::string(text) + "' is above 1 hour");
     }
-    return rtu::Duration(std::llround(*value * scale));
+    return *d;
 }
 
 std::expected<void, std::string> FaultTable::apply(rtu::SlaveAddress address, std::string_view assignment) {
@@ -96,7 +84,7 @@ std::expected<void, std::string> FaultTable::apply(rtu::SlaveAddress address, st
         }
         (key == "crc" ? f.crc : f.drop) = *share;
     } else if (key == "late") {
-        const auto delay = parse_duration(value);
+        const auto delay = option_duration(value);
         if (!delay) {
             return std::unexpected("late: " + delay.error());
         }

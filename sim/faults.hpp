@@ -64,7 +64,8 @@ private:
     bool echo_ = false;
 };
 
-// "1ms", "250us", "2s", "1500000ns"; a bare number is milliseconds.
-[[nodiscard]] std::expected<rtu::Duration, std::string> parse_duration(std::string_view text);
+// A duration of a fault or an option: drivebus's one grammar (lib/duration: "1ms", "250us",
+// "2s", "1500000ns"), from 0 to 1 hour.
+[[nodiscard]] std::expected<rtu::Duration, std::string> option_duration(std::string_view text);
 
 }  // namespace drivebus::sim

@@ -195,7 +195,7 @@ int run(const Options& o) {
         fail(kExitUsage, "--baud " + std::to_string(format.baud) +
                              ": not a standard rate (9600, 19200, 38400, 57600, 115200, ...)");
     }
-    const auto turnaround = sim::parse_duration(o.turnaround);
+    const auto turnaround = sim::option_duration(o.turnaround);
     if (!turnaround) {
         fail(kExitUsage, "--turnaround: " + turnaround.error());
     }

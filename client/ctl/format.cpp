@@ -1,5 +1,7 @@
 #include "format.hpp"
 
+#include "duration.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -185,28 +187,16 @@ std::string rejection_hint(const Error& error, const Profile* profile, std::stri
     }
 }
 
-std::expected<std::chrono::milliseconds, std::string> parse_duration(std::string_view text) {
-    const auto [number, unit] = split_number(trim(text));
-    const auto value = parse_real(number);
-    double factor = 0;
-    const auto u = lower(unit);
-    if (u.empty() || u == "ms") {
-        factor = 1;
-    } else if (u == "us") {
-        factor = 1e-3;
-    } else if (u == "s") {
-        factor = 1e3;
-    } else if (u == "min" || u == "m") {
-        factor = 60e3;
+std::expected<std::chrono::milliseconds, std::string> option_duration(std::string_view text) {
+    const auto d = drivebus::parse_duration(text);
+    if (!d) {
+        return std::unexpected(fmt::format("'{}' {}", text, d.error()));
     }
-    if (!value || factor == 0 || number.starts_with("0x") || number.starts_with("-")) {
-        return std::unexpected(fmt::format("'{}' is not a duration (like 500ms, 2s, 1min)", text));
-    }
-    const double ms = std::ceil(*value * factor);
-    if (ms < 1 || ms > 24.0 * 3600e3) {
+    const auto ms = std::chrono::ceil<std::chrono::milliseconds>(*d);
+    if (ms < std::chrono::milliseconds(1) || ms > std::chrono::hours(24)) {
         return std::unexpected(fmt::format("duration '{}' is outside 1ms-24h", text));
     }
-    return std::chrono::milliseconds(static_cast<std::int64_t>(ms));
+    return ms;
 }
 
 std::string format_age(std::int64_t ns) {

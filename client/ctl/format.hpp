@@ -37,9 +37,9 @@ inline constexpr int kExitUnknown = 8;    // not answered in time, already sent:
 [[nodiscard]] std::string rejection_hint(const Error& error, const Profile* profile, std::string_view what,
                                          std::uint16_t start, std::size_t count);
 
-// "500ms", "2s", "1.5s", "2min", "250us" (rounded up to whole ms); a bare number is milliseconds.
-// Must be above zero.
-[[nodiscard]] std::expected<std::chrono::milliseconds, std::string> parse_duration(std::string_view text);
+// A DURATION option: drivebus's one grammar (lib/duration: "500ms", "2s", "1.5s", "2min",
+// "250us"), rounded up to whole milliseconds, from 1ms to 24h.
+[[nodiscard]] std::expected<std::chrono::milliseconds, std::string> option_duration(std::string_view text);
 // An age or a span for people: "35 ms", "1.2 s", "3 min", "2 h".
 [[nodiscard]] std::string format_age(std::int64_t ns);
 

@@ -30,7 +30,7 @@ int usage_error(const ctl::Options& options, const std::string& message) {
 // A DURATION option as milliseconds, or the usage error.
 bool duration(const ctl::Options& options, const std::string& name, const std::string& text,
               std::chrono::milliseconds& out, int& status) {
-    const auto parsed = ctl::parse_duration(text);
+    const auto parsed = ctl::option_duration(text);
     if (!parsed) {
         status = usage_error(options, name + ": " + parsed.error());
         return false;

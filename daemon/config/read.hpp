@@ -37,9 +37,6 @@ bool fits_shm(Section& s, std::string_view key, std::string_view text, std::size
 // How errors name a drive type: "Altivar 58", or its type when the profile has no title.
 [[nodiscard]] std::string title_of(const Profile& profile);
 
-// "100ms" -> 100 ms: a whole number and one of the units ns, us, ms, s. The error completes
-// "<key> '<text>' ...".
-[[nodiscard]] std::expected<Duration, std::string> parse_duration(std::string_view text);
 // "100ms", "1s", "1500us": the largest unit that keeps the number whole.
 [[nodiscard]] std::string duration_text(Duration duration);
 

@@ -6,6 +6,7 @@
 #include <limits>
 #include <system_error>
 
+#include "duration.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {
@@ -61,30 +62,6 @@ std::string title_of(const Profile& profile) {
     return profile.title.empty() ? profile.type : profile.title;
 }
 
-std::expected<Duration, std::string> parse_duration(std::string_view text) {
-    std::int64_t value = 0;
-    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (result.ec == std::errc::result_out_of_range) {
-        return std::unexpected("is too large");
-    }
-    // from_chars takes a leading '-'; a duration is never negative.
-    if (result.ec != std::errc{} || text.starts_with('-')) {
-        return std::unexpected("is not a whole number with a unit (ns, us, ms or s), e.g. '100ms'");
-    }
-    const std::string_view suffix(result.ptr, text.data() + text.size());
-    if (suffix.empty()) {
-        return std::unexpected("has no unit: write ns, us, ms or s after the number, e.g. '100ms'");
-    }
-    const auto* unit = std::ranges::find(kUnits, suffix, &Unit::suffix);
-    if (unit == kUnits.end()) {
-        return std::unexpected("is not a whole number with a unit (ns, us, ms or s), e.g. '100ms'");
-    }
-    if (value > std::numeric_limits<std::int64_t>::max() / unit->nanoseconds) {
-        return std::unexpected("is too large");
-    }
-    return Duration(value * unit->nanoseconds);
-}
-
 std::string duration_text(Duration duration) {
     const auto ns = duration.count();
     for (const auto& unit : kUnits) {
@@ -97,7 +74,7 @@ std::string duration_text(Duration duration) {
 
 std::optional<Duration> checked_duration(Section& s, std::string_view key, std::string_view text, Duration lo,
                                          Duration hi) {
-    const auto value = parse_duration(text);
+    const auto value = drivebus::parse_duration(text);
     if (!value) {
         s.fail(std::string(key) + " " + in_quotes(text) + " " + value.error());
         return std::nullopt;

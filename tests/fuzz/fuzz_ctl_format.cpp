@@ -61,13 +61,13 @@ void check_value(std::string_view text, const RegisterInfo* info) {
 }
 
 void check_duration(std::string_view text) {
-    const auto d = ctl::parse_duration(text);
+    const auto d = ctl::option_duration(text);
     if (!d) {
         check(!d.error().empty(), "a duration refused without a reason");
         return;
     }
     check(d->count() >= 1 && d->count() <= 24LL * 3600 * 1000, "a duration outside 1ms-24h");
-    const auto back = ctl::parse_duration(fmt::format("{}ms", d->count()));
+    const auto back = ctl::option_duration(fmt::format("{}ms", d->count()));
     check(back && *back == *d, "a duration in ms does not parse back");
 }
 

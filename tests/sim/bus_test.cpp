@@ -196,13 +196,15 @@ TEST_F(BusTest, FaultSettingsRejectBadInputAndKeepTheOldOnes) {
 }
 
 TEST(Durations, Parse) {
-    EXPECT_EQ(parse_duration("250us").value(), 250us);
-    EXPECT_EQ(parse_duration("2ms").value(), 2ms);
-    EXPECT_EQ(parse_duration("1.5s").value(), 1500ms);
-    EXPECT_EQ(parse_duration("3").value(), 3ms);
-    EXPECT_FALSE(parse_duration("ms").has_value());
-    EXPECT_FALSE(parse_duration("-1ms").has_value());
-    EXPECT_FALSE(parse_duration("2h").has_value());
+    EXPECT_EQ(option_duration("250us").value(), 250us);
+    EXPECT_EQ(option_duration("2ms").value(), 2ms);
+    EXPECT_EQ(option_duration("1.5s").value(), 1500ms);
+    EXPECT_EQ(option_duration("0ms").value(), 0ms);
+    EXPECT_NE(option_duration("3").error().find("'3' has no unit"), std::string::npos);
+    EXPECT_FALSE(option_duration("ms").has_value());
+    EXPECT_FALSE(option_duration("-1ms").has_value());
+    EXPECT_FALSE(option_duration("2h").has_value());
+    EXPECT_NE(option_duration("61min").error().find("above 1 hour"), std::string::npos);
 }
 
 }  // namespace
