@@ -9,13 +9,11 @@
 
 #include "format.hpp"
 #include "json.hpp"
+#include "steps.hpp"
 #include "table.hpp"
 #include "view.hpp"
 
 namespace drivebus::ctl {
-namespace {
-
-constexpr Milliseconds kFirstData{1000};  // how long to wait for a first status or snapshot
 
 Error error_of(ErrorKind kind, std::string message) {
     Error e;
@@ -24,35 +22,45 @@ Error error_of(ErrorKind kind, std::string message) {
     return e;
 }
 
-// A failed step: the exit status once reported.
-struct Failed {
-    int status;
-};
-
-template <typename T>
-T need(std::expected<T, Error> result, const Options& options, const std::string& context = {}) {
-    if (!result) {
-        throw Failed{report(options, result.error(), context)};
-    }
-    return std::move(*result);
-}
-
 Bus connect(const Options& options) {
     return need(Bus::connect(options.bus, connect_options(options)), options);
 }
 
-std::string describe(const Error& error, const Drive& drive, std::string_view what, std::uint16_t start,
-                     std::size_t count) {
-    const auto hint = rejection_hint(error, drive.profile(), what, start, count);
-    return hint.empty() ? error.message : error.message + "; " + hint;
+Error response_error(const shm::Response& r) {
+    switch (r.status) {
+    case shm::Status::Rejected: {
+        auto e = error_of(ErrorKind::Rejected, fmt::format("drivebusd rejected the probe: {}", shm::to_string(r.reason)));
+        e.reason = r.reason;
+        return e;
+    }
+    case shm::Status::QueueFull:
+        return error_of(ErrorKind::QueueFull, "the bus's request queue is full; try again shortly");
+    case shm::Status::BusDown:
+        return error_of(ErrorKind::BusDown, "the bus is down: its serial device is not open (see journalctl -u drivebusd)");
+    case shm::Status::NotPermitted:
+        return error_of(ErrorKind::NotPermitted, "drivebusd does not let this client send requests");
+    default: return error_of(ErrorKind::BadFrame, fmt::format("unexpected answer: {}", shm::to_string(r.status)));
+    }
 }
 
-// Fails with the error, the drive's profile adding what it knows.
-[[noreturn]] void fail_request(const Options& options, Error error, const Drive& drive, std::string_view what,
-                               std::uint16_t start, std::size_t count, const std::string& context) {
-    error.message = describe(error, drive, what, start, count);
+void fail_request(const Options& options, Error error, const Drive& drive, std::string_view what,
+                  std::uint16_t start, std::size_t count, const std::string& context) {
+    const auto hint = rejection_hint(error, drive.profile(), what, start, count);
+    if (!hint.empty()) {
+        error.message += "; " + hint;
+    }
     throw Failed{report(options, error, context)};
 }
+
+int guarded(const std::function<int()>& body) {
+    try {
+        return body();
+    } catch (const Failed& f) {
+        return f.status;
+    }
+}
+
+namespace {
 
 std::string register_lines(const Drive& drive, std::uint16_t start, const std::vector<std::uint16_t>& values) {
     std::vector<Row> rows;
@@ -103,31 +111,6 @@ bool touches_lease(const Drive& drive, std::uint16_t start, std::size_t count) {
         const auto* r = profile->find(name);
         return r != nullptr && r->address && *r->address >= start && *r->address < static_cast<std::size_t>(start) + count;
     });
-}
-
-Error response_error(const shm::Response& r) {
-    switch (r.status) {
-    case shm::Status::Rejected: {
-        auto e = error_of(ErrorKind::Rejected, fmt::format("drivebusd rejected the probe: {}", shm::to_string(r.reason)));
-        e.reason = r.reason;
-        return e;
-    }
-    case shm::Status::QueueFull:
-        return error_of(ErrorKind::QueueFull, "the bus's request queue is full; try again shortly");
-    case shm::Status::BusDown:
-        return error_of(ErrorKind::BusDown, "the bus is down: its serial device is not open (see journalctl -u drivebusd)");
-    case shm::Status::NotPermitted:
-        return error_of(ErrorKind::NotPermitted, "drivebusd does not let this client send requests");
-    default: return error_of(ErrorKind::BadFrame, fmt::format("unexpected answer: {}", shm::to_string(r.status)));
-    }
-}
-
-int guarded(const std::function<int()>& body) {
-    try {
-        return body();
-    } catch (const Failed& f) {
-        return f.status;
-    }
 }
 
 }  // namespace
@@ -329,121 +312,6 @@ int run_write(const Options& options, const std::string& drive_name, const std::
                       .dump());
         } else {
             print(fmt::format("wrote to drive '{}':\n", drive.name()) + register_lines(drive, start, words));
-        }
-        return kExitOk;
-    });
-}
-
-int run_identify(const Options& options, const std::string& drive_name) {
-    return guarded([&] {
-        const auto context = fmt::format("identify {}", drive_name);
-        const auto bus = connect(options);
-        const auto drive = need(bus.drive(drive_name), options, context);
-        const auto identity = drive.identify();
-        if (!identity) {
-            fail_request(options, identity.error(), drive, "identify", 0, 0, context);
-        }
-        if (options.json) {
-            print(Json::object()
-                      .set("bus", bus.name())
-                      .set("drive", drive.name())
-                      .set("address", drive.address())
-                      .set("vendor", identity->vendor)
-                      .set("product_code", identity->product_code)
-                      .set("revision", identity->revision)
-                      .dump());
-        } else {
-            print(render_fields({{"drive", fmt::format("{} (address {})", drive.name(), drive.address())},
-                                 {"vendor", identity->vendor},
-                                 {"product code", identity->product_code},
-                                 {"revision", identity->revision}}));
-        }
-        return kExitOk;
-    });
-}
-
-int run_scan(const Options& options, int from, int to, const std::string& reg) {
-    return guarded([&] {
-        if (from < 1 || to > 247 || from > to) {
-            throw Failed{report(options, error_of(ErrorKind::InvalidArgument,
-                                                  fmt::format("scan --from {} --to {}: addresses run 1-247, from <= to",
-                                                              from, to)))};
-        }
-        const auto start = parse_value(reg, nullptr);
-        if (!start) {
-            throw Failed{report(options, error_of(ErrorKind::InvalidArgument, start.error()), "scan --register")};
-        }
-        const auto bus = connect(options);
-        const auto status = need(bus.status(kFirstData), options);
-        const bool progress = ::isatty(STDERR_FILENO) != 0;
-        auto found = Json::array();
-        std::vector<Row> rows = {{"ADDRESS", "DRIVE", "ANSWER"}};
-        int answered = 0;
-        for (int a = from; a <= to; ++a) {
-            if (progress) {
-                std::fprintf(stderr, "\rscanning address %d (%d-%d)...", a, from, to);
-                std::fflush(stderr);
-            }
-            shm::Request r;
-            r.kind = shm::RequestKind::Probe;
-            r.address = static_cast<std::uint8_t>(a);
-            r.start = *start;
-            r.count = 1;
-            auto response = bus.request(r);
-            if (response && (response->status == shm::Status::Timeout)) {
-                continue;
-            }
-            if (progress) {
-                std::fprintf(stderr, "\r\x1b[K");
-            }
-            if (!response) {
-                throw Failed{report(options, response.error(), fmt::format("scan address {}", a))};
-            }
-            std::string answer;
-            switch (response->status) {
-            case shm::Status::Ok:
-                answer = fmt::format("value {}", response->count > 0 ? response->values[0] : 0);
-                break;
-            case shm::Status::Exception:
-                answer = fmt::format("exception {} ({})", response->exception, exception_text(response->exception));
-                break;
-            case shm::Status::BadFrame: answer = "spoiled reply (something may be there)"; break;
-            default: throw Failed{report(options, response_error(*response), fmt::format("scan address {}", a))};
-            }
-            std::string name;
-            for (std::size_t i = 0; i < status.drive_count && i < status.drives.size(); ++i) {
-                if (status.drives[i].address == a) {
-                    name = std::string(shm::view(status.drives[i].name));
-                }
-            }
-            rows.push_back({std::to_string(a), name.empty() ? "-" : name, answer});
-            if (response->status == shm::Status::BadFrame) {
-                continue;
-            }
-            ++answered;
-            auto item = Json::object().set("address", a).set("drive", name.empty() ? Json() : Json(name));
-            if (response->status == shm::Status::Ok) {
-                item.set("answer", "value").set("value", response->count > 0 ? response->values[0] : 0);
-            } else {
-                item.set("answer", "exception").set("exception", response->exception);
-            }
-            found.push(std::move(item));
-        }
-        if (progress) {
-            std::fprintf(stderr, "\r\x1b[K");
-            std::fflush(stderr);
-        }
-        if (options.json) {
-            print(Json::object()
-                      .set("bus", bus.name())
-                      .set("from", from)
-                      .set("to", to)
-                      .set("register", *start)
-                      .set("found", std::move(found))
-                      .dump());
-        } else {
-            print((rows.size() > 1 ? render_table(rows) : std::string()) +
-                  fmt::format("{} of {} addresses answered (register {})\n", answered, to - from + 1, hex(*start)));
         }
         return kExitOk;
     });
