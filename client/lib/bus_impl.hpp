@@ -88,8 +88,15 @@ struct Bus::Impl {
     std::unique_ptr<CallbackGate> gate = std::make_unique<CallbackGate>();
 };
 
-// Process-wide: the iceoryx runtime, started once with a name unique to this process.
+// Process-wide: the iceoryx runtime, started once with a name unique to this process
+// (runtime.cpp).
 std::expected<void, Error> ensure_runtime(const std::string& application);
+// The buses drivebusd announces, waiting up to `wait` for the first.
+std::vector<std::string> discover_buses(std::chrono::milliseconds wait);
+// Whether this user is in `group`, as the group database lists its groups (as RouDi asks).
+bool user_in_group(const std::string& group);
+// An iceoryx service, instance or event name.
+iox::capro::IdString_t id(std::string_view text);
 Error make_error(ErrorKind kind, std::string message);
 // A response as an error, when it is one; `what` names the target ("drive pump"), `profile`
 // (the drive's, when there is one) explains the register a rejection names.
