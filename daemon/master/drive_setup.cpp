@@ -94,21 +94,18 @@ bool Scheduler::through_block(std::size_t drive, const rtu::RequestAdu& request)
 // block selectors) may have changed, so its blocks are confirmed again.
 void Scheduler::watch_fault(std::size_t drive, const ReadChunk& chunk, const Result& result) {
     Drive& d = drives_[drive];
-    const Profile& profile = *d.config->profile;
-    if (d.setup.empty() || !profile.control || !profile.control->status_bits.contains("fault")) {
+    if (!d.fault_flag) {
         return;
     }
-    const RegisterInfo* status = profile.find(std::string_view(profile.control->status));
     const auto* words = result.response ? std::get_if<rtu::ReadHoldingRegistersResponse>(&*result.response) : nullptr;
-    if (status == nullptr || !status->address || words == nullptr) {
+    if (words == nullptr) {
         return;
     }
     for (std::size_t i = 0; i < chunk.addresses.size() && i < words->values.size(); ++i) {
-        if (chunk.addresses[i] != *status->address) {
+        if (chunk.addresses[i] != d.fault_flag->status) {
             continue;
         }
-        const unsigned bit = profile.control->status_bits.at("fault");
-        const bool faulted = ((static_cast<unsigned>(words->values[i]) >> bit) & 1U) != 0;
+        const bool faulted = ((static_cast<unsigned>(words->values[i]) >> d.fault_flag->bit) & 1U) != 0;
         if (d.faulted && !faulted && d.setup_done) {
             d.setup.reset_seen();
             d.setup.restart();

@@ -39,6 +39,13 @@ Scheduler::Scheduler(const config::BusConfig& bus, rtu::Instant start) : bus_(bu
         drive.setup = SetupPlan(d.address, *d.profile, block_setups(d));
         drive.setup_done = drive.setup.empty();
         drive.blocks_confirmed = drive.setup.empty();
+        if (const auto& control = d.profile->control; !drive.setup.empty() && control) {
+            const RegisterInfo* status = d.profile->find(std::string_view(control->status));
+            const auto bit = control->status_bits.find("fault");
+            if (status != nullptr && status->address && bit != control->status_bits.end()) {
+                drive.fault_flag = Drive::FaultFlag{*status->address, bit->second};
+            }
+        }
         drives_.push_back(std::move(drive));
     }
 }

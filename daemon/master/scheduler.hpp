@@ -117,7 +117,14 @@ private:
         // fails and when the drive comes back from absence. Client requests through a block
         // wait for it.
         bool blocks_confirmed = true;
-        bool faulted = false;                  // the status word's fault bit, as last polled
+        // Where the profile's status word says the drive is tripped, when it has blocks to set
+        // up again after a reset (resolved once: watch_fault runs every poll cycle).
+        struct FaultFlag {
+            std::uint16_t status = 0;
+            unsigned bit = 0;
+        };
+        std::optional<FaultFlag> fault_flag;
+        bool faulted = false;  // the status word's fault bit, as last polled
         std::optional<Health> before_absence;  // Unconfigured or AwaitingReset when it went silent
         rtu::Instant setup_retry{};  // a failed set-up starts again no sooner
         rtu::Duration setup_backoff{};

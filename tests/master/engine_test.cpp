@@ -281,6 +281,35 @@ TEST_F(EngineTest, ADriveBackFromAbsenceHasItsBlockConfirmedAgain) {
     EXPECT_EQ(last("pump").registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
 }
 
+// A reset after a fault makes the ATV21 apply what it stores: when the polled status word's
+// fault bit clears, drivebusd reads the selectors and confirms the block again.
+TEST_F(EngineTest, AFaultClearedHasTheBlockConfirmedAgain) {
+    add_pump(true);
+    const std::vector<std::uint16_t> choices{2, 1, 3, 4, 5};
+    for (std::size_t i = 0; i < 5; ++i) {
+        ASSERT_TRUE(drives.drive(1)->poke("F87" + std::to_string(5 + i), choices[i]).has_value());
+    }
+    ASSERT_TRUE(drives.drive(1)->poke("F803", 0).has_value());
+    drives.drive(1)->power_cycle(kStart);
+    start();
+    ASSERT_TRUE(line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::Online; },
+                                     2s));
+    ASSERT_TRUE(engine->submit({7, 1, {1, rtu::WriteSingleRegister{0xFA00, 0xC000 | (1U << 12)}}}).has_value());
+    ASSERT_TRUE(line->run_until_true([&] { return (last("pump").registers.at(0xFD01).value & 0x2U) != 0; }, 2s));
+    const std::size_t before_reset = line->transmissions().size();
+    ASSERT_TRUE(engine->submit({7, 2, {1, rtu::WriteSingleRegister{0xFA00, 0xC000 | (1U << 13)}}}).has_value());
+    ASSERT_TRUE(line->run_until_true([&] { return (last("pump").registers.at(0xFD01).value & 0x2U) == 0; }, 2s));
+    line->run_for(500ms);
+    std::size_t selector_reads = 0;
+    for (std::size_t i = before_reset; i < line->transmissions().size(); ++i) {
+        const auto& adu = line->transmissions()[i].adu;
+        selector_reads += adu[1] == 0x03 && adu[2] == 0x08 && adu[3] >= 0x75 && adu[3] <= 0x79 ? 1U : 0U;
+    }
+    EXPECT_EQ(selector_reads, 5U) << "the selectors read once after the fault cleared";
+    EXPECT_EQ(last("pump").health, Health::Online);
+    EXPECT_EQ(last("pump").registers.at(0xFD01).value, drives.drive(1)->peek("FD01").value());
+}
+
 // A set-up read the drive refuses leaves it unconfigured: published as such, not polled (its
 // block would return what the old selectors choose), and set up again with back-off until it
 // holds.
