@@ -90,12 +90,23 @@ bool ReplyLedger::in_doubt(rtu::SlaveAddress address, const rtu::Request& reques
 
 std::optional<rtu::Request> ReplyLedger::choose_probe(rtu::SlaveAddress address, std::span<const rtu::Request> probes,
                                                       const rtu::Request& next) const {
+    std::optional<rtu::Request> owed_shape;
     for (const rtu::Request& probe : probes) {
-        if (!confusable(probe, next) && !in_doubt(address, probe)) {
+        if (confusable(probe, next)) {
+            continue;
+        }
+        if (!in_doubt(address, probe)) {
             return probe;
         }
+        if (!owed_shape) {
+            owed_shape = probe;
+        }
     }
-    return std::nullopt;
+    // Every shape is owed: a probe of an owed shape still proves the slave in step, more slowly.
+    // Its reply is matched to the oldest owed attempt it can answer, so it is taken for the
+    // probe's own only once nothing older can be answered by it; until then the probe fails and
+    // the request goes unsent, and each reply that comes settles what is older than it.
+    return owed_shape;
 }
 
 }  // namespace drivebus::master

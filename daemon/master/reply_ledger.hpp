@@ -68,7 +68,7 @@ public:
     // Whether a reply to `request` could still be taken for one owed by `address`.
     [[nodiscard]] bool in_doubt(rtu::SlaveAddress address, const rtu::Request& request) const noexcept;
     // The first of `probes` whose reply can be confused neither with an owed one nor with
-    // `next`'s, if any.
+    // `next`'s; if every one of them can be an owed one's, the first that cannot be `next`'s.
     [[nodiscard]] std::optional<rtu::Request> choose_probe(rtu::SlaveAddress address,
                                                            std::span<const rtu::Request> probes,
                                                            const rtu::Request& next) const;
