@@ -48,7 +48,7 @@ Row run(std::uint32_t baud, double seconds, int realtime) {
     }
     test::SimProcess sim(args);
     auto atv58 = test::load("atv58");
-    config::BusConfig config = test::bus({baud, 8, rtu::Parity::None, 1});
+    config::BusConfig config = test::bus<config::BusConfig>({baud, 8, rtu::Parity::None, 1});
     config.device = sim.link();
     auto fan = test::drive("fan", 2, atv58);
     fan.polls.push_back(test::poll(*atv58, {"W450", "W451", "W452", "W453"}, 1ms));

@@ -407,7 +407,7 @@ void latency(const Options& o, std::vector<Row>& rows) {
 config::BusConfig bus_config(const Line& line, const fs::path& device, int drives, std::vector<std::string> regs,
                              rtu::Duration period) {
     static const auto atv58 = test::load("atv58");
-    config::BusConfig config = test::bus(line.format());
+    config::BusConfig config = test::bus<config::BusConfig>(line.format());
     config.device = device;
     config.response_timeout = 100ms;
     for (int a = 1; a <= drives; ++a) {

@@ -1,6 +1,6 @@
 #include "faults.hpp"
 
-#include "duration.hpp"
+#include "duration/duration.hpp"
 
 #include <charconv>
 #include <cmath>

@@ -1,6 +1,6 @@
 #include "format.hpp"
 
-#include "duration.hpp"
+#include "duration/duration.hpp"
 
 #include <fmt/format.h>
 

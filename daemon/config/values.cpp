@@ -6,7 +6,7 @@
 #include <limits>
 #include <system_error>
 
-#include "duration.hpp"
+#include "duration/duration.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {

@@ -93,7 +93,7 @@ struct BusService::Impl {
     // Results and snapshots the bus thread handed over.
     void drain() {
         auto& handover = loop.handover();
-        bus::Finished f;
+        master::Finished f;
         while (handover.results.try_pop(f)) {
             intake.answer(f);
         }

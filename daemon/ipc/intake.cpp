@@ -93,7 +93,7 @@ void Intake::take(rtu::Instant now) {
     }
 }
 
-void Intake::answer(const bus::Finished& f) {
+void Intake::answer(const master::Finished& f) {
     auto a = impl_->core.finish(f);
     if (a && a->entry.route) {
         impl_->send(*a->entry.route, a->response);

@@ -26,13 +26,13 @@ BlockSetup set_up(const Profile& profile, const IndirectBlock& block, const std:
 
 }  // namespace
 
-std::vector<BlockSetup> block_setups(const config::DriveConfig& drive) {
+std::vector<BlockSetup> block_setups(const DrivePlan& drive) {
     std::vector<BlockSetup> blocks;
     if (!drive.profile) {
         return blocks;
     }
     const Profile& profile = *drive.profile;
-    const auto poll = std::ranges::find_if(drive.polls, &config::PollGroup::indirect);
+    const auto poll = std::ranges::find_if(drive.polls, &PollGroup::indirect);
     if (const IndirectBlock* block = profile.block(3); block != nullptr && poll != drive.polls.end()) {
         std::vector<std::uint16_t> targets;
         for (const auto& r : poll->registers) {
@@ -51,7 +51,7 @@ const BlockSetup* find_block(const std::vector<BlockSetup>& blocks, std::uint8_t
     return it != blocks.end() ? &*it : nullptr;
 }
 
-std::vector<std::pair<std::uint16_t, std::uint16_t>> setup_writes(const config::DriveConfig& drive) {
+std::vector<std::pair<std::uint16_t, std::uint16_t>> setup_writes(const DrivePlan& drive) {
     std::vector<std::pair<std::uint16_t, std::uint16_t>> writes;
     for (const auto& block : block_setups(drive)) {
         for (const auto& slot : block.slots) {

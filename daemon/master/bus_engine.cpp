@@ -7,19 +7,18 @@
 namespace drivebus::master {
 namespace {
 
-EchoSetting echo_setting(config::EchoMode mode) {
+EchoSetting echo_setting(EchoMode mode) {
     switch (mode) {
-    case config::EchoMode::On: return EchoSetting::On;
-    case config::EchoMode::Auto: return EchoSetting::Auto;
-    case config::EchoMode::Off: return EchoSetting::Off;
+    case EchoMode::On: return EchoSetting::On;
+    case EchoMode::Auto: return EchoSetting::Auto;
+    case EchoMode::Off: return EchoSetting::Off;
     }
     return EchoSetting::Off;
 }
 
 }  // namespace
 
-BusEngine::BusEngine(const config::BusConfig& bus, rtu::CharacterTiming timing, EngineCallbacks callbacks,
-                     rtu::Instant now)
+BusEngine::BusEngine(const BusPlan& bus, rtu::CharacterTiming timing, EngineCallbacks callbacks, rtu::Instant now)
     : timing_(timing),
       callbacks_(std::move(callbacks)),
       framer_(timing, rtu::InputMarking::Parmrk),

@@ -16,8 +16,7 @@ double milliseconds(rtu::Duration d) {
 
 }  // namespace
 
-rtu::Duration poll_line_time(const config::DriveConfig& drive, const config::PollGroup& group,
-                             const rtu::CharacterTiming& timing) {
+rtu::Duration poll_line_time(const DrivePlan& drive, const PollGroup& group, const rtu::CharacterTiming& timing) {
     rtu::Duration total{};
     if (!drive.profile) {
         return total;
@@ -29,7 +28,7 @@ rtu::Duration poll_line_time(const config::DriveConfig& drive, const config::Pol
     return total;
 }
 
-std::vector<std::string> line_budget_warnings(const config::BusConfig& bus) {
+std::vector<std::string> line_budget_warnings(const BusPlan& bus) {
     std::vector<std::string> lines;
     const auto timing = rtu::character_timing(bus.format);
     if (!timing) {

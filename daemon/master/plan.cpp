@@ -27,8 +27,7 @@ rtu::FunctionLimits limits_of(const Profile& profile) {
     return limits;
 }
 
-std::vector<ReadChunk> plan_reads(const config::PollGroup& group, const Profile& profile,
-                                  const rtu::FunctionLimits& limits) {
+std::vector<ReadChunk> plan_reads(const PollGroup& group, const Profile& profile, const rtu::FunctionLimits& limits) {
     std::vector<ReadChunk> chunks;
     if (group.indirect) {
         if (const IndirectBlock* block = profile.block(3)) {

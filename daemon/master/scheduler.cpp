@@ -9,7 +9,7 @@ namespace {
 
 // The register a keep-alive or probe reads: the first polled one, or the first readable
 // register of the profile.
-std::optional<std::uint16_t> keep_alive_register(const config::DriveConfig& drive) {
+std::optional<std::uint16_t> keep_alive_register(const DrivePlan& drive) {
     for (const auto& group : drive.polls) {
         if (!group.registers.empty()) {
             return group.registers.front().address;
@@ -25,7 +25,7 @@ std::optional<std::uint16_t> keep_alive_register(const config::DriveConfig& driv
 
 }  // namespace
 
-Scheduler::Scheduler(const config::BusConfig& bus, rtu::Instant start) : bus_(bus) {
+Scheduler::Scheduler(const BusPlan& bus, rtu::Instant start) : bus_(bus) {
     for (const auto& d : bus.drives) {
         Drive drive;
         drive.config = &d;

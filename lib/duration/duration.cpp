@@ -1,4 +1,4 @@
-#include "duration.hpp"
+#include "duration/duration.hpp"
 
 #include <array>
 #include <cmath>

@@ -72,7 +72,7 @@ protected:
         std::make_unique<SimProcess>(std::vector<std::string>{"--drive", "1:atv21", "--drive", "2:atv58"});
     std::shared_ptr<const Profile> atv21 = load("atv21");
     std::shared_ptr<const Profile> atv58 = load("atv58");
-    config::BusConfig config = bus();
+    config::BusConfig config = bus<config::BusConfig>();
     Recorder recorder;
     std::unique_ptr<bus::BusLoop> loop;
 
@@ -341,7 +341,7 @@ TEST(BusLoopOutput, AFullOutputBufferIsWaitedForInTheLoop) {
     int slave_fd = -1;
     ASSERT_EQ(::openpty(&master_fd, &slave_fd, nullptr, nullptr, nullptr), 0) << std::strerror(errno);
     const std::string slave_path = ::ttyname(slave_fd);
-    config::BusConfig config = bus();
+    config::BusConfig config = bus<config::BusConfig>();
     config.device = slave_path;
     config.drives.push_back(drive("pump", 1, load("atv21")));  // nothing polled: only what is asked
     bus::LoopOptions options;

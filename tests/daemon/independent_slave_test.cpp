@@ -26,7 +26,7 @@ TEST(IndependentSlave, ReadsAndWritesLandOnALibmodbusSlave) {
     Child slave({LIBMODBUS_SLAVE_PATH, slave_side.string(), "7"});
     ASSERT_TRUE(wait_until([&] { return slave.output().find("ready") != std::string::npos; }, 5s)) << slave.output();
 
-    config::BusConfig config = bus();
+    config::BusConfig config = bus<config::BusConfig>();
     config.device = master_side;
     config.response_timeout = 200ms;
     auto generic = load("generic");

@@ -54,7 +54,7 @@ Tally run(double factor) {
         tally.failure = "fault";
         return tally;
     }
-    config::BusConfig config = bus({115200, 8, rtu::Parity::None, 1});
+    config::BusConfig config = bus<config::BusConfig>({115200, 8, rtu::Parity::None, 1});
     config.device = sim.link();
     config.response_timeout = kTimeout;
     config.drives.push_back(drive("pump", 1, load("atv21")));

@@ -1,5 +1,5 @@
 // The one duration grammar (lib/duration): what it takes, what it refuses and how it says so.
-#include "duration.hpp"
+#include "duration/duration.hpp"
 
 #include <gtest/gtest.h>
 

@@ -85,7 +85,7 @@ void expect_no_allocation(bool commissioned) {
     }
     const auto atv21 = load("atv21");
     const auto atv58 = load("atv58");
-    config::BusConfig config = bus();
+    config::BusConfig config = bus<config::BusConfig>();
     config.device = sim.link();
     config.absent_backoff_min = 100ms;
     config.absent_backoff_max = 200ms;

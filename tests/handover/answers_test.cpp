@@ -50,7 +50,7 @@ long rss_anon_kb() {
 class Answers : public ::testing::Test {
 protected:
     std::shared_ptr<const Profile> atv21 = load("atv21");
-    config::BusConfig config = bus();
+    config::BusConfig config = bus<config::BusConfig>();
     std::unique_ptr<bus::BusLoop> loop;
     std::unique_ptr<ipc::LeasePolicy> leases;
     std::unique_ptr<ipc::IntakeCore<Route>> intake;
@@ -105,7 +105,7 @@ protected:
             pollfd p{h.ready_fd(), POLLIN, 0};
             (void)::poll(&p, 1, 20);
             h.acknowledge();
-            bus::Finished f;
+            master::Finished f;
             while (h.results.try_pop(f)) {
                 if (auto a = intake->finish(f)) {
                     if (a->entry.route) {
@@ -127,7 +127,7 @@ protected:
             pollfd p{h.ready_fd(), POLLIN, 0};
             (void)::poll(&p, 1, 100);
             h.acknowledge();
-            bus::Finished f;
+            master::Finished f;
             while (h.results.try_pop(f)) {
                 auto a = intake->finish(f);
                 if (a && a->entry.route) {

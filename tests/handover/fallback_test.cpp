@@ -16,13 +16,13 @@ namespace {
 using namespace std::chrono_literals;
 
 // The hand-over's answer for `id`, waiting up to `timeout`; other entries are dropped.
-std::optional<bus::Finished> answer_for(bus::Handover& h, std::uint64_t id, std::chrono::milliseconds timeout) {
+std::optional<master::Finished> answer_for(bus::Handover& h, std::uint64_t id, std::chrono::milliseconds timeout) {
     const auto deadline = sys::now() + timeout;
     do {
         pollfd p{h.ready_fd(), POLLIN, 0};
         (void)::poll(&p, 1, 50);
         h.acknowledge();
-        bus::Finished f;
+        master::Finished f;
         while (h.results.try_pop(f)) {
             if (f.id == id) {
                 return f;
@@ -44,7 +44,7 @@ master::ClientRequest stop_word(std::uint64_t id) {
 TEST(Fallback, RetriedUntilTheDriveAcknowledgesItAndGivenUpWhenTheDriveIsAbsent) {
     SimProcess sim({"--drive", "1:atv21"});
     const auto atv21 = load("atv21");
-    config::BusConfig config = bus();
+    config::BusConfig config = bus<config::BusConfig>();
     config.device = sim.link();
     auto pump = drive("pump", 1, atv21);
     pump.polls.push_back(poll(*atv21, {"FD00"}, 50ms));

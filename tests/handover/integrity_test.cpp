@@ -376,7 +376,7 @@ private:
 
     // The bus's results become answers; client reads are checked against the drive's truth.
     void collect() {
-        bus::Finished f;
+        master::Finished f;
         while (handover_->results.try_pop(f)) {
             auto a = intake_->finish(f);
             if (!a || !a->entry.route) {
@@ -397,9 +397,9 @@ private:
         }
     }
 
-    void check_read(const Sent& s, const bus::Finished& f) {
+    void check_read(const Sent& s, const master::Finished& f) {
         if (s.request.kind != shm::RequestKind::Read || f.outcome != master::Outcome::Ok ||
-            f.refusal != bus::Refusal::None) {
+            f.refusal != master::Refusal::None) {
             return;
         }
         const rtu::SlaveAddress address = std::string_view(s.request.drive.data()) == "pump" ? 1 : 2;
@@ -529,7 +529,7 @@ private:
     std::mt19937_64 rng_;
     std::shared_ptr<const Profile> atv21_ = load("atv21");
     std::shared_ptr<const Profile> atv58_ = load("atv58");
-    config::BusConfig config_ = bus();
+    config::BusConfig config_ = bus<config::BusConfig>();
     rtu::CharacterTiming timing_ = rtu::character_timing(config_.format).value();
     sim::Bus drives_{{timing_, 1ms, true, 3}};
     std::unique_ptr<bus::Handover> handover_;

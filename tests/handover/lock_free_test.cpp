@@ -21,12 +21,23 @@ std::string read(const std::string& path) {
 
 TEST(LockFree, NothingBetweenTheBusThreadAndTheIpcThreadTakesALock) {
     const std::array files = {
-        "daemon/bus/bus_loop.hpp",    "daemon/bus/bus_loop.cpp",    "daemon/bus/handover.hpp",
-        "daemon/bus/handover.cpp",    "daemon/bus/finished.hpp",    "daemon/bus/desk.hpp",
-        "daemon/bus/desk.cpp",        "daemon/sys/spsc_ring.hpp",
-        "daemon/sys/seqlock.hpp",     "daemon/ipc/bus_service.hpp", "daemon/ipc/bus_service.cpp",
-        "daemon/ipc/intake.hpp",      "daemon/ipc/intake.cpp",      "daemon/ipc/intake_core.hpp",
-        "daemon/ipc/pending.hpp",     "daemon/ipc/publisher.hpp",   "daemon/ipc/publisher.cpp",
+        "daemon/bus/include/bus/bus_loop.hpp",
+        "daemon/bus/bus_loop.cpp",
+        "daemon/bus/include/bus/handover.hpp",
+        "daemon/bus/handover.cpp",
+        "daemon/master/include/master/finished.hpp",
+        "daemon/bus/include/bus/desk.hpp",
+        "daemon/bus/desk.cpp",
+        "lib/sys/include/sys/spsc_ring.hpp",
+        "lib/sys/include/sys/seqlock.hpp",
+        "daemon/ipc/include/ipc/bus_service.hpp",
+        "daemon/ipc/bus_service.cpp",
+        "daemon/ipc/include/ipc/intake.hpp",
+        "daemon/ipc/intake.cpp",
+        "daemon/ipc_core/include/ipc/intake_core.hpp",
+        "daemon/ipc_core/include/ipc/pending.hpp",
+        "daemon/ipc/include/ipc/publisher.hpp",
+        "daemon/ipc/publisher.cpp",
     };
     // iceoryx's UserTrigger takes a mutex on trigger(): the bus thread wakes the ipc side
     // through an eventfd instead.

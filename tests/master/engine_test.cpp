@@ -21,7 +21,7 @@ class EngineTest : public ::testing::Test {
 protected:
     std::shared_ptr<const Profile> atv21 = load("atv21");
     std::shared_ptr<const Profile> atv58 = load("atv58");
-    config::BusConfig config = bus();
+    master::BusPlan config = bus();
     rtu::CharacterTiming timing = rtu::character_timing(config.format).value();
     std::vector<master::DriveSnapshot> snapshots;
     std::vector<std::pair<std::uint64_t, master::Result>> client_results;
@@ -479,7 +479,7 @@ TEST_F(EngineTest, LateRepliesAreNotMistakenForTheNextOne) {
 
 TEST_F(EngineTest, EchoIsConsumedAndChecked) {
     add_fan();
-    config.echo = config::EchoMode::On;
+    config.echo = master::EchoMode::On;
     ASSERT_TRUE(drives.faults().apply(0, "echo=1").has_value());
     ASSERT_TRUE(drives.drive(2)->poke("W452", 4242).has_value());
     start();
@@ -491,7 +491,7 @@ TEST_F(EngineTest, EchoIsConsumedAndChecked) {
 
 TEST_F(EngineTest, EchoAutoDetection) {
     add_fan();
-    config.echo = config::EchoMode::Auto;
+    config.echo = master::EchoMode::Auto;
     ASSERT_TRUE(drives.faults().apply(0, "echo=1").has_value());
     start();
     line->run_for(300ms);
@@ -501,7 +501,7 @@ TEST_F(EngineTest, EchoAutoDetection) {
 
 TEST_F(EngineTest, EchoAutoDetectsNoEcho) {
     add_fan();
-    config.echo = config::EchoMode::Auto;
+    config.echo = master::EchoMode::Auto;
     start();
     line->run_for(300ms);
     EXPECT_EQ(engine->echo(), master::EchoSetting::Off);

@@ -1,4 +1,4 @@
-// Bus configurations for the master's tests, built in code from the real profiles.
+// Bus plans for the master's tests, built in code from the real profiles.
 #pragma once
 
 #include <memory>
@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "config/config.hpp"
+#include "master/bus_plan.hpp"
 
 namespace drivebus::test {
 
@@ -18,9 +18,9 @@ inline std::shared_ptr<const Profile> load(std::string_view type) {
     return std::make_shared<const Profile>(std::move(*p));
 }
 
-inline config::PollGroup poll(const Profile& profile, std::vector<std::string> names, rtu::Duration period,
+inline master::PollGroup poll(const Profile& profile, std::vector<std::string> names, rtu::Duration period,
                               bool indirect = false) {
-    config::PollGroup g;
+    master::PollGroup g;
     g.name = "g";
     g.period = period;
     g.indirect = indirect;
@@ -34,18 +34,19 @@ inline config::PollGroup poll(const Profile& profile, std::vector<std::string> n
     return g;
 }
 
-inline config::DriveConfig drive(std::string name, std::uint8_t address, std::shared_ptr<const Profile> profile) {
-    config::DriveConfig d;
+inline master::DrivePlan drive(std::string name, std::uint8_t address, std::shared_ptr<const Profile> profile) {
+    master::DrivePlan d;
     d.name = std::move(name);
     d.address = address;
     d.profile = std::move(profile);
     return d;
 }
 
-inline config::BusConfig bus(rtu::LineFormat format = {19200, 8, rtu::Parity::None, 1}) {
-    config::BusConfig b;
+// A bus plan, or (for the tests of the bus thread) a config::BusConfig, which is one.
+template <class Bus = master::BusPlan>
+Bus bus(rtu::LineFormat format = {19200, 8, rtu::Parity::None, 1}) {
+    Bus b;
     b.name = "test";
-    b.device = "/dev/null";
     b.format = format;
     b.response_timeout = std::chrono::milliseconds(50);
     b.retries = 2;

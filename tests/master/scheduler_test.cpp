@@ -59,7 +59,7 @@ TEST(PlanReads, SplitsWithinTheDrivesLimit) {
 class SchedulerTest : public ::testing::Test {
 protected:
     std::shared_ptr<const Profile> atv58 = load("atv58");
-    config::BusConfig config = bus();
+    master::BusPlan config = bus();
 
     void SetUp() override {
         auto a = drive("a", 1, atv58);

@@ -165,7 +165,7 @@ public:
         : seed_(seed), echo_(echo), combined_(combined), kinds_(kinds), rng_(seed) {
         config_.response_timeout = 100ms;
         config_.retries = 2;
-        config_.echo = echo ? config::EchoMode::On : config::EchoMode::Off;
+        config_.echo = echo ? master::EchoMode::On : master::EchoMode::Off;
         auto pump = drive("pump", kPump, atv21_);
         pump.polls.push_back(poll(*atv21_, {"FD00", "FD01", "FE03", "FE05", "FC91"}, 100ms, true));
         pump.polls.push_back(poll(*atv21_, {"FA51", "FE35", "FC90"}, 250ms));
@@ -729,7 +729,7 @@ private:
     std::mt19937_64 rng_;
     std::shared_ptr<const Profile> atv21_ = load("atv21");
     std::shared_ptr<const Profile> atv58_ = load("atv58");
-    config::BusConfig config_ = bus();
+    master::BusPlan config_ = bus();
     rtu::CharacterTiming timing_ = rtu::character_timing(config_.format).value();
     sim::Bus drives_{{timing_, 1ms, true, static_cast<std::uint32_t>(seed_)}};
     std::unique_ptr<master::BusEngine> engine_;

@@ -24,7 +24,7 @@ class WireRules : public ::testing::Test {
 protected:
     std::shared_ptr<const Profile> atv21 = load("atv21");
     std::shared_ptr<const Profile> atv58 = load("atv58");
-    config::BusConfig config = bus();
+    master::BusPlan config = bus();
     rtu::CharacterTiming timing = rtu::character_timing(config.format).value();
     std::vector<master::DriveSnapshot> snapshots;
     std::vector<std::pair<std::uint64_t, master::Result>> results;
@@ -181,7 +181,7 @@ TEST_F(WireRules, BytesWaitingInTheInputQueueDelayTheWrite) {
 // The response time-out runs until the reply begins: a 125-register reply (255 bytes, 133 ms
 // at 19200 bit/s) outlasts the default 100 ms and still succeeds.
 TEST_F(WireRules, ALongReplyGetsItsOwnWireTime) {
-    config.response_timeout = config::BusConfig{}.response_timeout;
+    config.response_timeout = master::BusPlan{}.response_timeout;
     // A generic slave with 125 registers, each holding its own address + 1000.
     auto meter = std::make_shared<Profile>(*load("generic"));
     for (std::uint16_t a = 0; a < 125; ++a) {

@@ -1,0 +1,99 @@
+// drivebusd's configuration: parsed and validated once at start-up into this immutable
+// struct. Nothing is opened before it is valid. See docs/configuration.md.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "drivebus/profile.hpp"
+#include "master/bus_plan.hpp"
+#include "rtu/timing.hpp"
+#include "serial/options.hpp"
+
+namespace drivebus::config {
+
+enum class DirectionMode : std::uint8_t { Kernel, Gpio, Rts, None };
+
+// What the master runs (master/bus_plan.hpp), as the configuration names it.
+using master::Duration;
+using master::EchoMode;
+using master::LeaseFallback;
+using master::PolledRegister;
+using master::PollGroup;
+using DriveConfig = master::DrivePlan;
+
+// A bus: the line's settings and the plan the master runs on it.
+struct BusConfig : master::BusPlan {
+    std::filesystem::path device;
+    DirectionMode direction = DirectionMode::None;
+    serial::KernelRs485Options kernel;        // for DirectionMode::Kernel
+    std::optional<serial::GpioOptions> gpio;  // required for DirectionMode::Gpio
+    // Used when the kernel says it has no RS485 support: rts, none, or nullopt (fail).
+    std::optional<DirectionMode> kernel_fallback;
+    std::filesystem::path lock_dir;  // UUCP lock files; empty: none
+};
+
+enum class RealtimeMode : std::uint8_t { Off, BestEffort, Required };
+
+struct RealtimeConfig {
+    RealtimeMode mode = RealtimeMode::BestEffort;
+    int priority = 50;        // SCHED_FIFO priority of the bus threads, 1-99
+    std::vector<int> cpus;    // CPU affinity of the bus threads; empty: any
+    bool lock_memory = true;  // lock what the threads use, once set up (rt/memory.hpp)
+    // The bus thread's timer wakes it this long before each request is due and it spins on
+    // the clock for the rest: a timer's wake-up is late by tens of microseconds. 0: off.
+    Duration send_spin{};
+};
+
+enum class RouDiMode : std::uint8_t { Auto, Embedded, External };
+
+// The iceoryx side: where RouDi runs, and the Unix groups that decide who may watch (subscribe)
+// and who may send requests, enforced by RouDi's shared-memory segments.
+struct IpcConfig {
+    RouDiMode roudi = RouDiMode::Auto;
+    std::string watch_group = "drivebus";            // read the daemon's publications
+    std::string control_group = "drivebus-control";  // send requests
+    std::string daemon_group = "drivebusd";          // drivebusd alone: writes the publications
+    std::size_t max_clients = 32;                    // sizes the shared memory
+};
+
+struct Config {
+    std::filesystem::path source;
+    IpcConfig ipc;
+    std::vector<BusConfig> buses;
+    RealtimeConfig realtime;
+};
+
+// One line naming the file, the place and the problem:
+// "drivebusd.toml: bus 'line1' drive 'pump': address 40 is outside 1-31 for an Altivar 58".
+struct ConfigError {
+    std::string message;
+};
+
+// Where profiles come from: by type along profile_search_path(), unless a directory is given.
+struct LoadOptions {
+    std::optional<std::filesystem::path> profile_dir;
+};
+
+[[nodiscard]] std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
+                                                              const LoadOptions& options = {});
+[[nodiscard]] std::expected<Config, ConfigError> load_config(const std::filesystem::path& file,
+                                                             const LoadOptions& options = {});
+
+// What a valid configuration still leaves unsafe, one line each, for the start-up log: a drive
+// whose control lease can only fall back to "hold" keeps running when its application dies.
+[[nodiscard]] std::vector<std::string> start_up_warnings(const Config& config);
+
+// "kernel", "gpio", ...
+[[nodiscard]] std::string_view to_string(DirectionMode mode) noexcept;
+[[nodiscard]] std::string_view to_string(EchoMode mode) noexcept;
+[[nodiscard]] std::string_view to_string(LeaseFallback fallback) noexcept;
+[[nodiscard]] std::string_view to_string(RouDiMode mode) noexcept;
+
+}  // namespace drivebus::config

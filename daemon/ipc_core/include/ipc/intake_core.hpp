@@ -1,0 +1,192 @@
+// The intake's decisions, without iceoryx: a request taken from shared memory is admitted (or
+// rejected), checked against the leases, booked under the one queue limit and handed to the
+// bus, or answered at once; a result coming back from the bus frees its entry and becomes the
+// answer. Every request leaves through exactly one answer. `Route` is what the caller needs
+// to send that answer (an iceoryx request header); `Submit` hands a request to the bus and
+// returns false when it cannot take it. Pure but for the log.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <functional>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "ipc/admission.hpp"
+#include "ipc/convert.hpp"
+#include "ipc/lease_policy.hpp"
+#include "ipc/pending.hpp"
+#include "master/finished.hpp"
+
+namespace drivebus::ipc {
+
+template <typename Route>
+class IntakeCore {
+public:
+    using Submit = std::function<bool(const master::ClientRequest&)>;
+
+    IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit)
+        : bus_(bus), leases_(leases), submit_(std::move(submit)), book_(bus.queue_limit) {}
+
+    // A request from a client. Returns the answer to send now with `route`; nullopt: the
+    // request and its route are booked and the bus will answer.
+    std::optional<shm::Response> accept(const shm::Request& request, Route& route, bool bus_up, rtu::Instant now) {
+        Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
+        who.token = request.lease_token;
+        who.pid = request.pid;
+        if (request.kind == shm::RequestKind::Withdraw && shm::compatible(request)) {
+            return withdraw(who, route);
+        }
+        auto admitted = admit(bus_, request);
+        if (!admitted) {
+            log::info(
+                fmt::format("bus {}: request from {} rejected: {}", bus_.name, who.client_name, admitted.error().why));
+            return answer(who, shm::Status::Rejected, admitted.error().reason, admitted.error().register_address);
+        }
+        who.drive = admitted->drive;
+        if (!admitted->on_wire) {
+            const auto a = request.kind == shm::RequestKind::LeaseRelease ? leases_.release(who.drive, who)
+                                                                          : leases_.renew(who.drive, who, now);
+            act(who.drive, a);
+            who.lease_ms = a.lease_ms;
+            return answer(who, a.status, shm::RejectReason::None, 0, a.holder);
+        }
+        if (admitted->touches_control) {
+            const auto a = leases_.command(who.drive, who, (request.flags & shm::kFlagTakeOver) != 0, now);
+            act(who.drive, a);
+            if (a.status != shm::Status::Ok) {
+                return answer(who, a.status, shm::RejectReason::None, request.start, a.holder);
+            }
+            who.lease_ms = a.lease_ms;
+            who.granted = a.token;  // whatever the bus then answers, the taker learns its token
+        }
+        if (!bus_up) {
+            return answer(who, shm::Status::BusDown);
+        }
+        const auto id = book_.book(who, std::move(route));
+        if (!id) {
+            return answer(who, shm::Status::QueueFull);
+        }
+        if (!submit_(master::ClientRequest{request.client, *id, admitted->request,
+                                           request.kind == shm::RequestKind::Probe})) {
+            // Cannot happen while the bus's ring is sized to the limit; answered all the same.
+            auto entry = book_.finish(*id);
+            route = std::move(*entry->route);
+            return answer(entry->origin, shm::Status::QueueFull);
+        }
+        return std::nullopt;
+    }
+
+    // drivebusd's own write (a lease fallback): outside the clients' limit.
+    bool submit_own(std::size_t drive, const rtu::RequestAdu& write) {
+        Origin own{0, 0, "drivebusd fallback", shm::RequestKind::Write, drive};
+        const auto id = book_.book_own(own);
+        if (submit_(master::ClientRequest{0, id, write, false, true})) {
+            return true;
+        }
+        (void)book_.finish(id);
+        return false;
+    }
+
+    struct Answer {
+        typename PendingBook<Route>::Entry entry;  // its routes: where the response goes
+        shm::Response response;
+    };
+    // The bus answered: the entry leaves the book, and the response goes to its route and to
+    // its withdrawal's, if any (the request finished first: the withdrawal learns its result).
+    // A fallback's outcome goes to the lease policy (its entry has no route). A withdrawal that
+    // came too late is answered Sent, and the entry stays for the request's own result.
+    // Nullopt for an id not booked.
+    std::optional<Answer> finish(const master::Finished& f) {
+        if (f.refusal == master::Refusal::NotWithdrawn) {
+            auto* e = book_.entry(f.id);
+            if (e == nullptr || !e->withdrawal) {
+                return std::nullopt;  // it finished meanwhile: its result answered the withdrawal
+            }
+            Answer a{{e->origin, std::nullopt, std::exchange(e->withdrawal, std::nullopt)}, response_shell(e->origin)};
+            a.response.status = shm::Status::Sent;
+            return a;
+        }
+        auto entry = book_.finish(f.id);
+        if (!entry) {
+            return std::nullopt;
+        }
+        ++served_;
+        if (entry->origin.fallback) {
+            act(entry->origin.drive,
+                leases_.fallback_done(entry->origin.drive, f.outcome, f.refusal != master::Refusal::None));
+        }
+        Answer a{std::move(*entry), response_shell(entry->origin)};
+        fill_response(f, a.response);
+        return a;
+    }
+
+    // Drives whose lease snapshot changed since the last call.
+    std::vector<std::size_t> take_republish() { return std::exchange(republish_, {}); }
+    [[nodiscard]] const PendingBook<Route>& book() const noexcept { return book_; }
+    [[nodiscard]] std::uint64_t served() const noexcept { return served_; }
+    // Requests answered QueueFull at the limit (the bus's own refusals are counted by the bus).
+    [[nodiscard]] std::uint64_t queue_full() const noexcept { return queue_full_; }
+
+private:
+    // A Withdraw: the request it names goes to the bus for withdrawal, and the answer waits for
+    // the bus's word; a request not in the book, or already asked to withdraw, is answered
+    // NotPending at once (so no client can fill the rings to the bus thread with withdrawals).
+    std::optional<shm::Response> withdraw(const Origin& who, Route& route) {
+        const auto id = book_.find(who.client, who.correlation);
+        auto* e = id ? book_.entry(*id) : nullptr;
+        if (e == nullptr || e->withdrawal_asked) {
+            return answer(who, shm::Status::Rejected, shm::RejectReason::NotPending);
+        }
+        e->withdrawal_asked = true;
+        master::ClientRequest order;
+        order.client = who.client;
+        order.correlation = *id;
+        order.withdraw = true;
+        if (!submit_(order)) {
+            return answer(who, shm::Status::Sent);  // cannot tell: said as the worse case
+        }
+        e->withdrawal = std::move(route);
+        return std::nullopt;
+    }
+
+    static shm::Response response_shell(const Origin& who) {
+        shm::Response r{};
+        r.size = sizeof r;
+        r.correlation = who.correlation;
+        r.lease_ms = who.lease_ms;
+        r.lease_token = who.granted;
+        return r;
+    }
+
+    shm::Response answer(const Origin& who, shm::Status status, shm::RejectReason reason = shm::RejectReason::None,
+                         std::uint16_t address = 0, const Holder& holder = {}) {
+        ++served_;
+        queue_full_ += status == shm::Status::QueueFull ? 1 : 0;
+        auto r = response_shell(who);
+        r.status = status;
+        r.reason = reason;
+        r.register_address = address;
+        shm::assign(r.lease_holder, holder.name);  // who holds it, never its token
+        r.lease_holder_pid = holder.pid;
+        return r;
+    }
+
+    void act(std::size_t drive, const LeaseAction& a) {
+        write_note(a.note);
+        if (a.republish && drive != kBroadcast) {
+            republish_.push_back(drive);
+        }
+    }
+
+    const config::BusConfig& bus_;
+    LeasePolicy& leases_;
+    Submit submit_;
+    PendingBook<Route> book_;
+    std::vector<std::size_t> republish_;
+    std::uint64_t served_ = 0;
+    std::uint64_t queue_full_ = 0;
+};
+
+}  // namespace drivebus::ipc

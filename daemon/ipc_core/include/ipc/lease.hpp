@@ -1,0 +1,96 @@
+// Control leases: the client that writes a drive's command or reference holds the drive's lease
+// and must renew it; another client is refused (unless it takes the lease over); a lease that
+// runs out gets the drive's fallback. Pure: time is an argument, and the secret tokens come
+// from a source the caller gives (getrandom in drivebusd, a counter in tests).
+//
+// A lease is a capability, not a name: taking it hands its holder a secret token, and only a
+// request that presents that token renews it, writes under it or releases it. Who holds it
+// (a display name and pid, the client's own word) is published; the token never is. A client
+// that takes a lease while presenting the token of a lease it holds on another drive keeps
+// that token, so one client's live leases share one token (its broadcasts present it).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "config/config.hpp"
+#include "drivebus/shm.hpp"
+#include "rtu/timing.hpp"
+
+namespace drivebus::ipc {
+
+using shm::LeaseToken;
+// A fresh secret, never all zero (zero presents nothing).
+using TokenSource = std::function<LeaseToken()>;
+
+// Who a lease is published as holding: what the client says it is, for people to read.
+struct Holder {
+    std::string name;  // "pump-control[1234]"
+    std::int32_t pid = 0;
+};
+
+struct LeaseDecision {
+    bool allowed = false;
+    bool taken_over = false;     // the lease moved from another client
+    bool changed = false;        // taken (not merely renewed): holder or state differ
+    Holder holder;               // the holder after the decision (the refuser's holder when denied)
+    LeaseToken token{};          // taken: the token to hand to the taker alone; zero otherwise
+    std::uint32_t lease_ms = 0;  // granted length when allowed
+};
+
+struct Expiry {
+    std::size_t drive = 0;
+    Holder holder;
+    config::LeaseFallback fallback = config::LeaseFallback::Hold;
+};
+
+class LeaseTable {
+public:
+    LeaseTable(const config::BusConfig& bus, TokenSource tokens);
+
+    // A write to the drive's command or reference presenting `token`: takes or renews the
+    // lease, or refuses when the lease is live under another token and `take_over` is false.
+    LeaseDecision acquire(std::size_t drive, const LeaseToken& token, const Holder& who, bool take_over,
+                          rtu::Instant now);
+    // Renews the live lease held under `token`; refuses otherwise.
+    LeaseDecision renew(std::size_t drive, const LeaseToken& token, rtu::Instant now);
+    // Gives the lease held under `token` up (no fallback). False otherwise.
+    bool release(std::size_t drive, const LeaseToken& token);
+    // Who holds a live lease on some drive under another token than `token` (for broadcasts).
+    [[nodiscard]] std::optional<Holder> other_holder(const LeaseToken& token) const;
+
+    // Leases that have run out by `now`; each becomes Expired and is returned once.
+    std::vector<Expiry> expire(rtu::Instant now);
+    // The next expiry, if any lease is held.
+    [[nodiscard]] std::optional<rtu::Instant> next_deadline() const;
+    // The fallback's write was answered (or not).
+    void fallback_result(std::size_t drive, bool ok);
+
+    [[nodiscard]] shm::LeaseStatus status(std::size_t drive) const;
+    [[nodiscard]] std::uint64_t expiries() const noexcept { return expiries_; }
+
+private:
+    struct Lease {
+        Holder holder;
+        LeaseToken token{};  // zero unless Held
+        rtu::Instant expires{};
+        shm::LeaseState state = shm::LeaseState::Free;
+        rtu::Duration duration{};
+        config::LeaseFallback fallback = config::LeaseFallback::Hold;
+        bool fallback_ok = false;
+        rtu::Instant expired{};
+        std::uint64_t expiries = 0;
+    };
+    [[nodiscard]] static bool held_under(const Lease& l, const LeaseToken& token);
+    [[nodiscard]] LeaseToken token_for(const LeaseToken& presented);
+
+    std::vector<Lease> leases_;
+    TokenSource tokens_;
+    std::uint64_t expiries_ = 0;
+};
+
+}  // namespace drivebus::ipc

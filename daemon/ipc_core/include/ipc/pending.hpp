@@ -1,0 +1,106 @@
+// The requests the ipc side has handed to the bus and not yet answered, and the one queue
+// limit: a client request is booked only while fewer than `limit` are in flight, so the bus's
+// rings and queues, sized to the same limit, can never refuse one for room. Every booked
+// entry leaves by finish(), when the bus hands back its result or its refusal: each request
+// gets exactly one answer, and the book returns to empty. Pure; `Route` is whatever the
+// caller needs to answer (an iceoryx request header), opaque here.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include "drivebus/shm.hpp"
+#include "ipc/admission.hpp"
+
+namespace drivebus::ipc {
+
+// Who asked, and what the answer must carry.
+struct Origin {
+    std::uint64_t correlation = 0;  // the client's
+    std::uint64_t client = 0;
+    std::string client_name;
+    shm::RequestKind kind = shm::RequestKind::Read;
+    std::size_t drive = kBroadcast;
+    std::uint32_t lease_ms = 0;
+    bool fallback = false;      // drivebusd's own lease fallback, not a client's
+    shm::LeaseToken token{};    // the lease token the request presents
+    std::int32_t pid = 0;       // the client's, as it says
+    shm::LeaseToken granted{};  // the request took a lease: its token, for this answer alone
+};
+
+template <typename Route>
+class PendingBook {
+public:
+    struct Entry {
+        Origin origin;
+        std::optional<Route> route;       // empty for drivebusd's own requests
+        std::optional<Route> withdrawal;  // the client's Withdraw of it, waiting for the bus's word
+        bool withdrawal_asked = false;    // one per request: the rings hold one withdrawal each
+    };
+
+    explicit PendingBook(std::size_t limit) : limit_(limit) {}
+
+    // A client request: its id for the bus, or nullopt when `limit` are already in flight
+    // (answer QueueFull).
+    std::optional<std::uint64_t> book(Origin origin, Route route) {
+        if (clients_ >= limit_) {
+            return std::nullopt;
+        }
+        ++clients_;
+        return add(Entry{std::move(origin), std::move(route), std::nullopt, false});
+    }
+    // drivebusd's own (a lease fallback): outside the clients' limit; the bus sizes its rings
+    // for one per drive.
+    std::uint64_t book_own(Origin origin) {
+        origin.fallback = true;
+        return add(Entry{std::move(origin), std::nullopt, std::nullopt, false});
+    }
+    // The bus answered `id`: the entry leaves the book. Nullopt for an id not booked.
+    std::optional<Entry> finish(std::uint64_t id) {
+        auto it = entries_.find(id);
+        if (it == entries_.end()) {
+            return std::nullopt;
+        }
+        Entry e = std::move(it->second);
+        entries_.erase(it);
+        if (!e.origin.fallback) {
+            --clients_;
+        }
+        return e;
+    }
+
+    // The entry of a client's request, by the client's own id and correlation.
+    [[nodiscard]] std::optional<std::uint64_t> find(std::uint64_t client, std::uint64_t correlation) const {
+        for (const auto& [id, e] : entries_) {
+            if (!e.origin.fallback && e.origin.client == client && e.origin.correlation == correlation) {
+                return id;
+            }
+        }
+        return std::nullopt;
+    }
+    [[nodiscard]] Entry* entry(std::uint64_t id) {
+        const auto it = entries_.find(id);
+        return it == entries_.end() ? nullptr : &it->second;
+    }
+
+    [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
+    [[nodiscard]] std::size_t clients_in_flight() const noexcept { return clients_; }
+    [[nodiscard]] std::size_t limit() const noexcept { return limit_; }
+
+private:
+    std::uint64_t add(Entry e) {
+        const std::uint64_t id = next_id_++;
+        entries_.emplace(id, std::move(e));
+        return id;
+    }
+
+    std::size_t limit_;
+    std::size_t clients_ = 0;
+    std::uint64_t next_id_ = 1;
+    std::unordered_map<std::uint64_t, Entry> entries_;
+};
+
+}  // namespace drivebus::ipc

@@ -1,0 +1,104 @@
+#include "ipc/lease_policy.hpp"
+
+#include <fmt/format.h>
+
+namespace drivebus::ipc {
+
+void write_note(const std::optional<Note>& note) {
+    if (note) {
+        log::write(note->level, note->text);
+    }
+}
+
+LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
+    : bus_(bus), table_(bus, std::move(tokens)) {}
+
+std::string LeasePolicy::where(std::size_t drive) const {
+    return fmt::format("bus {} drive {}", bus_.name, bus_.drives.at(drive).name);
+}
+
+LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now) {
+    LeaseAction a;
+    if (drive == kBroadcast) {
+        if (const auto other = table_.other_holder(who.token)) {
+            a.status = shm::Status::NotPermitted;
+            a.holder = *other;
+        }
+        return a;
+    }
+    const auto d = table_.acquire(drive, who.token, Holder{who.client_name, who.pid}, take_over, now);
+    if (!d.allowed) {
+        a.status = shm::Status::NotPermitted;
+        a.holder = d.holder;
+        a.note = Note{log::Level::Info, fmt::format("{}: {} may not command it: {} holds the control lease",
+                                                    where(drive), who.client_name, d.holder.name)};
+        return a;
+    }
+    if (d.taken_over) {
+        a.note =
+            Note{log::Level::Notice, fmt::format("{}: {} took the control lease over", where(drive), who.client_name)};
+    }
+    a.lease_ms = d.lease_ms;
+    a.token = d.token;
+    // A renewal only moves the expiry: subscribers hear of new holders, not of each write.
+    a.republish = d.changed;
+    return a;
+}
+
+LeaseAction LeasePolicy::renew(std::size_t drive, const Origin& who, rtu::Instant now) {
+    const auto d = table_.renew(drive, who.token, now);
+    LeaseAction a;
+    a.status = d.allowed ? shm::Status::Ok : shm::Status::NotPermitted;
+    a.holder = d.holder;
+    a.lease_ms = d.lease_ms;
+    return a;
+}
+
+LeaseAction LeasePolicy::release(std::size_t drive, const Origin& who) {
+    LeaseAction a;
+    if (!table_.release(drive, who.token)) {
+        a.status = shm::Status::NotPermitted;
+        a.note = Note{log::Level::Info, fmt::format("{}: {} may not release the control lease: it does not hold it",
+                                                    where(drive), who.client_name)};
+        return a;
+    }
+    a.republish = true;
+    a.note = Note{log::Level::Info, fmt::format("{}: {} released the control lease", where(drive), who.client_name)};
+    return a;
+}
+
+std::vector<FallbackAction> LeasePolicy::expire(rtu::Instant now) {
+    std::vector<FallbackAction> out;
+    for (const auto& e : table_.expire(now)) {
+        const auto& d = bus_.drives.at(e.drive);
+        FallbackAction f;
+        f.drive = e.drive;
+        f.note = Note{log::Level::Warning, fmt::format("{}: the control lease of {} ran out; fallback: {}",
+                                                       where(e.drive), e.holder.name, config::to_string(e.fallback))};
+        if (e.fallback != config::LeaseFallback::Hold && d.profile && d.profile->control) {
+            const auto& control = *d.profile->control;
+            const auto* command = d.profile->find(control.command);
+            const auto word = e.fallback == config::LeaseFallback::Stop ? control.stop : control.freewheel;
+            if (command != nullptr && command->address && word) {
+                f.write = rtu::RequestAdu{d.address, rtu::WriteSingleRegister{*command->address, *word}};
+            }
+        }
+        out.push_back(std::move(f));
+    }
+    return out;
+}
+
+LeaseAction LeasePolicy::fallback_done(std::size_t drive, master::Outcome outcome, bool refused) {
+    const bool ok = !refused && outcome == master::Outcome::Ok;
+    table_.fallback_result(drive, ok);
+    LeaseAction a;
+    a.republish = true;
+    if (!ok) {
+        a.note = Note{log::Level::Error,
+                      fmt::format("{}: the fallback write failed: {}", where(drive),
+                                  refused ? std::string_view("refused by the bus") : master::to_string(outcome))};
+    }
+    return a;
+}
+
+}  // namespace drivebus::ipc
