@@ -1,8 +1,6 @@
 // drivebus-sim: simulated Altivar drives on a pty (or a given tty), paced at the line's wire
 // speed, with fault injection. See docs/simulator.md.
-#include <fcntl.h>
 #include <sched.h>
-#include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
@@ -10,11 +8,8 @@
 #include <CLI/CLI.hpp>
 #include <array>
 #include <csignal>
-#include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <iostream>
-#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -24,169 +19,22 @@
 #include "commands.hpp"
 #include "control.hpp"
 #include "event_log.hpp"
-#include "drivebus/profile.hpp"
 #include "rtu/framer.hpp"
-#include "serial/pty.hpp"
 #include "serial/termios.hpp"
+#include "setup.hpp"
 #include "sys/event_loop.hpp"
 #include "writer.hpp"
 
-namespace fs = std::filesystem;
 using namespace drivebus;
 
 namespace {
 
-constexpr int kExitUsage = 2;
-constexpr int kExitRuntime = 1;
+using sim::fail;
+using sim::kExitRuntime;
+using sim::kExitUsage;
 
-struct Options {
-    std::string link;
-    std::string device;
-    std::vector<std::string> drives;
-    std::uint32_t baud = 19200;
-    unsigned data_bits = 8;
-    std::string parity = "none";
-    unsigned stop_bits = 1;
-    bool pace = true;
-    std::string turnaround = "1ms";
-    std::vector<std::string> faults;
-    std::vector<std::string> drive_options;
-    std::string control;
-    std::uint32_t seed = 1;
-    std::string profile_dir;
-    int realtime = 0;
-    std::string tx_log;
-    std::string rx_log;
-};
-
-struct Line {
-    sys::UniqueFd fd;  // what the simulator reads and writes
-    std::optional<serial::PtyPair> pty;
-    fs::path link;  // removed on exit
-    std::string description;
-};
-
-[[noreturn]] void fail(int code, const std::string& message) {
-    std::cerr << "drivebus-sim: " << message << '\n';
-    std::exit(code);
-}
-
-rtu::LineFormat line_format(const Options& o) {
-    rtu::LineFormat f;
-    f.baud = o.baud;
-    f.data_bits = static_cast<std::uint8_t>(o.data_bits);
-    f.parity = o.parity == "even" ? rtu::Parity::Even : (o.parity == "odd" ? rtu::Parity::Odd : rtu::Parity::None);
-    f.stop_bits = static_cast<std::uint8_t>(o.stop_bits);
-    return f;
-}
-
-std::shared_ptr<const Profile> profile_for(const Options& o, const std::string& type,
-                                           std::map<std::string, std::shared_ptr<const Profile>>& cache) {
-    if (const auto it = cache.find(type); it != cache.end()) {
-        return it->second;
-    }
-    auto loaded =
-        o.profile_dir.empty() ? load_profile_by_type(type) : load_profile(fs::path(o.profile_dir) / (type + ".toml"));
-    if (!loaded) {
-        fail(kExitUsage, "--drive ...:" + type + ": " + loaded.error().message);
-    }
-    auto profile = std::make_shared<const Profile>(std::move(*loaded));
-    cache[type] = profile;
-    return profile;
-}
-
-void add_drives(const Options& o, sim::Bus& bus, const rtu::LineFormat& format) {
-    std::map<std::string, std::shared_ptr<const Profile>> cache;
-    for (const std::string& spec : o.drives) {
-        const auto colon = spec.find(':');
-        unsigned address = 0;
-        if (colon == std::string::npos || std::sscanf(spec.substr(0, colon).c_str(), "%u", &address) != 1) {
-            fail(kExitUsage, "--drive " + spec + ": expected ADDRESS:TYPE, such as 1:atv21");
-        }
-        const std::string type = spec.substr(colon + 1);
-        auto profile = profile_for(o, type, cache);
-        if (address < profile->address_min || address > profile->address_max) {
-            fail(kExitUsage, "--drive " + spec + ": an " + profile->title + " takes addresses " +
-                                 std::to_string(profile->address_min) + "-" + std::to_string(profile->address_max));
-        }
-        if (bus.drive(static_cast<rtu::SlaveAddress>(address)) != nullptr) {
-            fail(kExitUsage, "--drive " + spec + ": address " + std::to_string(address) + " is taken twice");
-        }
-        const auto& parities = profile->parities;
-        if (!parities.empty() && std::ranges::find(parities, o.parity) == parities.end()) {
-            std::cerr << "drivebus-sim: warning: an " << profile->title << " does not offer parity " << o.parity
-                      << "; simulating it anyway\n";
-        }
-        std::unique_ptr<sim::ProfileDrive> drive;
-        try {
-            drive = sim::make_drive(static_cast<rtu::SlaveAddress>(address), profile);
-        } catch (const std::exception& e) {
-            fail(kExitUsage, "--drive " + spec + ": " + e.what());
-        }
-        // An Altivar 21 on this line has been set to its format (F800 baud, F801 parity).
-        if (type == "atv21") {
-            (void)drive->poke("F800", format.baud == 9600 ? 0 : 1);
-            (void)drive->poke("F801", static_cast<std::uint16_t>(format.parity == rtu::Parity::None   ? 0
-                                                                 : format.parity == rtu::Parity::Even ? 1
-                                                                                                      : 2));
-            (void)drive->poke("F802", static_cast<std::uint16_t>(address));
-        }
-        bus.add(std::move(drive));
-    }
-}
-
-Line open_line(const Options& o, const rtu::LineFormat& format) {
-    Line line;
-    if (!o.link.empty()) {
-        auto pty = serial::open_pty();
-        if (!pty) {
-            fail(kExitRuntime, "cannot open a pty: " + pty.error().message());
-        }
-        line.link = o.link;
-        std::error_code ec;
-        const auto status = fs::symlink_status(line.link, ec);
-        if (fs::exists(status) && !fs::is_symlink(status)) {
-            fail(kExitUsage, "--link " + o.link + ": exists and is not a symlink; not replacing it");
-        }
-        fs::remove(line.link, ec);
-        fs::create_symlink(pty->slave_path, line.link, ec);
-        if (ec) {
-            fail(kExitRuntime, "--link " + o.link + ": " + ec.message());
-        }
-        (void)serial::configure_line(pty->slave.get(), format, serial::ErrorMarking::Off);
-        line.fd.reset(pty->master.release());
-        line.description = o.link + " -> " + pty->slave_path.string();
-        line.pty = std::move(*pty);
-        return line;
-    }
-    auto fd =
-        sys::posix_call("open", [&] { return ::open(o.device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC); });
-    if (!fd) {
-        fail(kExitRuntime, "--device " + o.device + ": " + fd.error().message());
-    }
-    line.fd.reset(*fd);
-    if (::ioctl(line.fd.get(), TIOCEXCL) != 0) {
-        fail(kExitRuntime, "--device " + o.device + ": cannot take it exclusively: " + std::strerror(errno));
-    }
-    if (auto ok = serial::configure_line(line.fd.get(), format, serial::ErrorMarking::Parmrk); !ok) {
-        fail(kExitRuntime, "--device " + o.device + ": " + ok.error().message());
-    }
-    line.description = o.device;
-    return line;
-}
-
-void remove_link(const Line& line) {
-    if (line.link.empty() || !line.pty) {
-        return;
-    }
-    std::error_code ec;
-    if (fs::is_symlink(line.link, ec) && fs::read_symlink(line.link, ec) == line.pty->slave_path) {
-        fs::remove(line.link, ec);
-    }
-}
-
-int run(const Options& o) {
-    const rtu::LineFormat format = line_format(o);
+int run(const sim::Options& o) {
+    const rtu::LineFormat format = sim::line_format(o);
     const auto timing = rtu::character_timing(format);
     if (!timing) {
         fail(kExitUsage, std::string(rtu::to_string(timing.error())));
@@ -201,7 +49,7 @@ int run(const Options& o) {
     }
 
     sim::Bus bus({*timing, *turnaround, o.pace, o.seed});
-    add_drives(o, bus, format);
+    sim::add_drives(o, bus, format);
     for (const std::string& f : o.faults) {
         if (auto ok = sim::apply_fault_argument(bus, f); !ok) {
             fail(kExitUsage, ok.error());
@@ -232,7 +80,7 @@ int run(const Options& o) {
     ::sigprocmask(SIG_BLOCK, &signals, nullptr);
     sys::UniqueFd signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
 
-    Line line = open_line(o, format);
+    sim::Line line = sim::open_line(o, format);
     const bool pty = line.pty.has_value();
 
     sys::EventLoop loop;
@@ -248,7 +96,7 @@ int run(const Options& o) {
         tx_log.emplace(o.tx_log);
         rx_log.emplace(o.rx_log);
     } catch (const std::exception& e) {
-        remove_link(line);
+        sim::remove_link(line);
         fail(kExitRuntime, std::string("--tx-log/--rx-log: ") + e.what());
     }
     if (tx_log->enabled()) {
@@ -350,7 +198,7 @@ int run(const Options& o) {
             control.emplace(loop, o.control,
                             [&](std::string_view command) { return sim::run_command(bus, command, sys::now()); });
         } catch (const std::exception& e) {
-            remove_link(line);
+            sim::remove_link(line);
             fail(kExitRuntime, std::string("--control: ") + e.what());
         }
     }
@@ -368,7 +216,7 @@ int run(const Options& o) {
         status = kExitRuntime;
     }
     control.reset();
-    remove_link(line);
+    sim::remove_link(line);
     std::cerr << "drivebus-sim: stopped; " << bus.counters().to_string() << '\n';
     return status;
 }
@@ -376,7 +224,7 @@ int run(const Options& o) {
 }  // namespace
 
 int run_main(int argc, char** argv) {
-    Options o;
+    sim::Options o;
     CLI::App app{"drivebus-sim: simulated Altivar 21 and Altivar 58 drives on a serial line"};
     auto* link = app.add_option("--link", o.link, "make a pty and a symlink PATH to the side a master opens");
     auto* device = app.add_option("--device", o.device, "use this tty instead of a pty");
