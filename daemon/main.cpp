@@ -141,7 +141,12 @@ int run_main(int argc, char** argv) {
         sigaddset(&signals, s);
     }
     ::pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // every thread inherits the mask
-    sys::UniqueFd signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
+    auto made = sys::posix_call("signalfd", [&] { return ::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC); });
+    if (!made) {
+        log::error("cannot watch signals: " + made.error().message());
+        return kExitStartup;
+    }
+    const sys::UniqueFd signal_fd(*made);
 
     const auto& rt = config->realtime;
     auto ipc_host = ipc::Host::start(*config, "drivebusd-" + std::to_string(::getpid()));
@@ -225,7 +230,8 @@ int run_main(int argc, char** argv) {
     sys::Timer status_timer;
     auto signals_added = loop.add(signal_fd.get(), [&] {
         signalfd_siginfo info{};
-        while (::read(signal_fd.get(), &info, sizeof info) == sizeof info) {
+        while (sys::posix_call("read", [&] { return ::read(signal_fd.get(), &info, sizeof info); }) ==
+               static_cast<ssize_t>(sizeof info)) {
             if (info.ssi_signo == SIGINT || info.ssi_signo == SIGTERM) {
                 loop.stop();
             }

@@ -30,8 +30,11 @@ ControlServer::ControlServer(sys::EventLoop& loop, std::filesystem::path path, H
         std::filesystem::remove(path_, ec);  // left over from a simulator that was killed
     }
     const auto* sa = reinterpret_cast<const sockaddr*>(&addr);
-    if (::bind(listener_.get(), sa, sizeof addr) != 0 || ::listen(listener_.get(), 8) != 0) {
-        throw std::runtime_error("control socket " + p + ": " + std::strerror(errno));
+    if (auto bound = sys::posix_call("bind", [&] { return ::bind(listener_.get(), sa, sizeof addr); }); !bound) {
+        throw std::runtime_error("control socket " + p + ": " + bound.error().message());
+    }
+    if (auto listening = sys::posix_call("listen", [&] { return ::listen(listener_.get(), 8); }); !listening) {
+        throw std::runtime_error("control socket " + p + ": " + listening.error().message());
     }
     if (auto added = loop_.add(listener_.get(), [this] { accept_client(); }); !added) {
         throw std::runtime_error("control socket " + p + ": " + added.error().message());
@@ -65,15 +68,15 @@ void ControlServer::drop(int fd) {
 
 void ControlServer::serve(int fd) {
     std::array<char, 1024> buffer{};
-    const auto n = ::read(fd, buffer.data(), buffer.size());
-    if (n <= 0) {
-        if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+    const auto n = sys::posix_call("read", [&] { return ::read(fd, buffer.data(), buffer.size()); });
+    if (!n || *n == 0) {
+        if (n || n.error().error != EAGAIN) {
             drop(fd);
         }
         return;
     }
     std::string& pending = clients_[fd].second;
-    pending.append(buffer.data(), static_cast<std::size_t>(n));
+    pending.append(buffer.data(), static_cast<std::size_t>(*n));
     if (pending.size() > 4096) {
         drop(fd);  // no command is that long
         return;

@@ -78,7 +78,11 @@ int run(const sim::Options& o) {
         sigaddset(&signals, s);
     }
     ::sigprocmask(SIG_BLOCK, &signals, nullptr);
-    sys::UniqueFd signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
+    auto made = sys::posix_call("signalfd", [&] { return ::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC); });
+    if (!made) {
+        fail(kExitRuntime, "cannot watch signals: " + made.error().message());
+    }
+    const sys::UniqueFd signal_fd(*made);
 
     sim::Line line = sim::open_line(o, format);
     const bool pty = line.pty.has_value();
@@ -134,20 +138,18 @@ int run(const sim::Options& o) {
     added.push_back(loop.add(line.fd.get(), [&] {
         std::array<std::uint8_t, 4096> buffer{};
         for (;;) {
-            const auto n = ::read(line.fd.get(), buffer.data(), buffer.size());
-            if (n < 0 && errno == EINTR) {
-                continue;
-            }
-            if (n < 0 && errno == EAGAIN) {
+            const auto n = sys::posix_call("read", [&] { return ::read(line.fd.get(), buffer.data(), buffer.size()); });
+            if (!n && n.error().error == EAGAIN) {
                 break;
             }
-            if (n <= 0) {
-                std::cerr << "drivebus-sim: " << line.description << ": line closed (" << std::strerror(errno) << ")\n";
+            if (!n || *n == 0) {
+                std::cerr << "drivebus-sim: " << line.description << ": line closed ("
+                          << (n ? std::string("end of file") : n.error().message()) << ")\n";
                 status = kExitRuntime;
                 loop.stop();
                 return;
             }
-            const auto bytes = std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n));
+            const auto bytes = std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(*n));
             const rtu::Instant read_time = sys::now();
             // A new frame begins: how long after our last character did the master start it?
             // (Not after a reply the simulator itself sent late: the master rightly took the
@@ -177,7 +179,8 @@ int run(const sim::Options& o) {
     added.push_back(loop.add(writer.timer_fd(), [&] { writer.service(); }));
     added.push_back(loop.add(signal_fd.get(), [&] {
         signalfd_siginfo info{};
-        while (::read(signal_fd.get(), &info, sizeof info) == sizeof info) {
+        while (sys::posix_call("read", [&] { return ::read(signal_fd.get(), &info, sizeof info); }) ==
+               static_cast<ssize_t>(sizeof info)) {
             if (info.ssi_signo == SIGUSR1) {
                 std::cerr << "drivebus-sim: " << bus.counters().to_string() << '\n';
             } else if (info.ssi_signo == SIGINT || info.ssi_signo == SIGTERM) {

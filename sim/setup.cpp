@@ -122,8 +122,8 @@ Line open_line(const Options& o, const rtu::LineFormat& format) {
         fail(kExitRuntime, "--device " + o.device + ": " + fd.error().message());
     }
     line.fd.reset(*fd);
-    if (::ioctl(line.fd.get(), TIOCEXCL) != 0) {
-        fail(kExitRuntime, "--device " + o.device + ": cannot take it exclusively: " + std::strerror(errno));
+    if (auto excl = sys::posix_call("TIOCEXCL", [&] { return ::ioctl(line.fd.get(), TIOCEXCL); }); !excl) {
+        fail(kExitRuntime, "--device " + o.device + ": cannot take it exclusively: " + excl.error().message());
     }
     if (auto ok = serial::configure_line(line.fd.get(), format, serial::ErrorMarking::Parmrk); !ok) {
         fail(kExitRuntime, "--device " + o.device + ": " + ok.error().message());

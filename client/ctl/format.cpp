@@ -134,18 +134,6 @@ std::string kind_name(ErrorKind kind) {
     return name;
 }
 
-std::string exception_text(std::uint8_t code) {
-    switch (code) {
-    case 1: return "illegal function";
-    case 2: return "illegal data address";
-    case 3: return "illegal data value";
-    case 4: return "slave device failure";
-    case 5: return "acknowledge";
-    case 6: return "slave device busy";
-    default: return "exception";
-    }
-}
-
 std::string rejection_hint(const Error& error, const Profile* profile, std::string_view what, std::uint16_t start,
                            std::size_t count) {
     if (error.kind != ErrorKind::Rejected || profile == nullptr) {

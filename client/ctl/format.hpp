@@ -28,9 +28,6 @@ inline constexpr int kExitUnknown = 8;    // not answered in time, already sent:
 // The kind as JSON names it: "not_permitted".
 [[nodiscard]] std::string kind_name(ErrorKind kind);
 
-// A Modbus exception code in words: 2 -> "illegal data address".
-[[nodiscard]] std::string exception_text(std::uint8_t code);
-
 // What to do about a rejection by drivebusd, from the drive's profile: "F803 takes 0..100 (0-100 s)".
 // `what` is "read", "write" or "identify"; `start` the first of `count` registers. Empty when
 // there is nothing to add.

@@ -83,7 +83,7 @@ int run_scan(const Options& options, int from, int to, const std::string& reg) {
                 answer = fmt::format("value {}", response->count > 0 ? response->values[0] : 0);
                 break;
             case shm::Status::Exception:
-                answer = fmt::format("exception {} ({})", response->exception, exception_text(response->exception));
+                answer = fmt::format("exception {} ({})", response->exception, exception_name(response->exception));
                 break;
             case shm::Status::BadFrame: answer = "spoiled reply (something may be there)"; break;
             default: throw Failed{report(options, response_error(*response), fmt::format("scan address {}", a))};

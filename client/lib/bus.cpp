@@ -15,6 +15,7 @@
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/service_discovery.hpp"
+#include "sys/local.hpp"
 
 namespace drivebus {
 iox::capro::IdString_t id(std::string_view text) {
@@ -112,7 +113,7 @@ std::expected<void, Error> Bus::Impl::open() {
         first = *status;  // the listener's thread keeps writing it
     }
     const auto group = std::string(shm::view(first.control_group));
-    may_request = group.empty() || user_in_group(group);
+    may_request = group.empty() || sys::user_in_group(group);
 
     for (std::size_t i = 0; i < first.drive_count && i < first.drives.size(); ++i) {
         auto feed = std::make_unique<DriveFeed>();

@@ -94,7 +94,6 @@ std::expected<void, Error> ensure_runtime(const std::string& application);
 // The buses drivebusd announces, waiting up to `wait` for the first.
 std::vector<std::string> discover_buses(std::chrono::milliseconds wait);
 // Whether this user is in `group`, as the group database lists its groups (as RouDi asks).
-bool user_in_group(const std::string& group);
 // An iceoryx service, instance or event name.
 iox::capro::IdString_t id(std::string_view text);
 Error make_error(ErrorKind kind, std::string message);
@@ -104,6 +103,5 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
                                           const Profile* profile = nullptr);
 // A rejection's reason and register, in words.
 std::string rejection_text(const shm::Response& response, const Profile* profile);
-std::string exception_text(std::uint8_t code);
 
 }  // namespace drivebus

@@ -1,19 +1,12 @@
 // libdrivebus's errors: their kinds in words, Modbus exceptions by name, and a response from
 // drivebusd turned into the error it stands for.
 #include "bus_impl.hpp"
+#include "rtu/types.hpp"
 
 namespace drivebus {
 
-std::string exception_text(std::uint8_t code) {
-    switch (code) {
-    case 1: return "illegal function";
-    case 2: return "illegal data address";
-    case 3: return "illegal data value";
-    case 4: return "slave device failure";
-    case 5: return "acknowledge";
-    case 6: return "slave device busy";
-    default: return "exception";
-    }
+std::string_view exception_name(std::uint8_t code) noexcept {
+    return rtu::to_string(static_cast<rtu::ExceptionCode>(code));
 }
 
 Error make_error(ErrorKind kind, std::string message) {
@@ -55,8 +48,8 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
     case shm::Status::Ok: return {};
     case shm::Status::Exception:
         e.kind = ErrorKind::Exception;
-        e.message =
-            what + " answered exception " + std::to_string(r.exception) + " (" + exception_text(r.exception) + ")";
+        e.message = what + " answered exception " + std::to_string(r.exception) + " (" +
+                    std::string(exception_name(r.exception)) + ")";
         break;
     case shm::Status::Timeout:
         e.kind = ErrorKind::Timeout;

@@ -2,10 +2,7 @@
 // act on (not running, which group to join, which effective group), the runtime started once
 // per process, and the buses drivebusd announces.
 #include <grp.h>
-#include <pwd.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,26 +14,13 @@
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/service_discovery.hpp"
+#include "sys/local.hpp"
 
 namespace drivebus {
 namespace {
 
 constexpr char kRouDiSocket[] = "/tmp/roudi";
 constexpr char kManagementShm[] = "/dev/shm/iceoryx_mgmt";
-
-// 0 when RouDi answers on its socket, else the errno of the attempt.
-int roudi_answers() {
-    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    if (fd < 0) {
-        return errno;
-    }
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::strncpy(addr.sun_path, kRouDiSocket, sizeof(addr.sun_path) - 1);
-    const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 ? 0 : errno;
-    ::close(fd);
-    return rc;
-}
 
 std::string group_of(const char* path) {
     struct stat st {};
@@ -49,30 +33,6 @@ std::string group_of(const char* path) {
 }
 
 }  // namespace
-
-bool user_in_group(const std::string& group) {
-    const auto* g = ::getgrnam(group.c_str());
-    if (g == nullptr) {
-        return false;
-    }
-    if (::getegid() == g->gr_gid) {
-        return true;
-    }
-    // RouDi decides by the user's groups as the group database lists them, not by the groups
-    // this process happens to carry: ask the same way.
-    const auto* pw = ::getpwuid(::geteuid());
-    if (pw == nullptr) {
-        return false;
-    }
-    int n = 64;
-    std::vector<gid_t> gids(static_cast<std::size_t>(n));
-    if (::getgrouplist(pw->pw_name, pw->pw_gid, gids.data(), &n) < 0) {
-        gids.resize(static_cast<std::size_t>(n));
-        ::getgrouplist(pw->pw_name, pw->pw_gid, gids.data(), &n);
-    }
-    gids.resize(static_cast<std::size_t>(std::max(n, 0)));
-    return std::ranges::find(gids, g->gr_gid) != gids.end();
-}
 
 namespace {
 
@@ -111,7 +71,8 @@ std::vector<std::string> discover_buses(std::chrono::milliseconds wait) {
 std::expected<void, Error> ensure_runtime(const std::string& application) {
     static std::once_flag once;
     static bool started = false;
-    if (const int error = roudi_answers(); error != 0) {
+    if (const auto answers = sys::datagram_socket_answers(kRouDiSocket); !answers) {
+        const int error = answers.error().error;
         if (error == EACCES) {
             const auto group = group_of(kRouDiSocket);
             struct stat st {};

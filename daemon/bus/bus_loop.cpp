@@ -1,7 +1,6 @@
 #include "bus/bus_loop.hpp"
 
 #include <pthread.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <future>
@@ -16,18 +15,6 @@ namespace drivebus::bus {
 
 namespace {
 
-void poke(int eventfd) noexcept {
-    const std::uint64_t one = 1;
-    [[maybe_unused]] const auto n = ::write(eventfd, &one, sizeof one);
-}
-
-sys::UniqueFd make_eventfd() {
-    sys::UniqueFd fd(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
-    if (!fd) {
-        throw std::runtime_error("eventfd for the bus thread: refused by the kernel");
-    }
-    return fd;
-}
 
 }  // namespace
 
@@ -36,7 +23,7 @@ BusLoop::BusLoop(const config::BusConfig& bus, master::EngineCallbacks callbacks
       callbacks_(std::move(callbacks)),
       options_(std::move(options)),
       handover_(bus.queue_limit, bus.drives.size()),
-      wake_(make_eventfd()) {}
+      wake_("eventfd for the bus thread") {}
 
 BusLoop::~BusLoop() {
     stop();
@@ -89,7 +76,7 @@ std::expected<void, master::SubmitError> BusLoop::submit(const master::ClientReq
     if (!handover_.requests.try_push(request)) {
         return std::unexpected(master::SubmitError::QueueFull);
     }
-    poke(wake_.get());
+    wake_.signal();
     return {};
 }
 

@@ -17,11 +17,6 @@ namespace drivebus::bus {
 
 namespace {
 
-void poke(int eventfd) noexcept {
-    const std::uint64_t one = 1;
-    [[maybe_unused]] const auto n = ::write(eventfd, &one, sizeof one);
-}
-
 class BusThread final : public BusLoop::Impl {
 public:
     BusThread(const config::BusConfig& bus, const master::EngineCallbacks& callbacks, const LoopOptions& options,
@@ -38,7 +33,7 @@ public:
           heartbeat_(shared.heartbeat),
           wake_(shared.wake) {
         desk_.attach(engine_);
-        auto woken = loop_.add(wake_, [this] { on_wake(); });
+        auto woken = loop_.add(wake_.fd(), [this] { on_wake(); });
         auto timed = loop_.add(timer_.fd(), [this] {
             timer_.acknowledge();
             armed_.reset();
@@ -63,13 +58,12 @@ public:
 
     void request_stop() noexcept override {
         stopping_ = true;
-        poke(wake_);
+        wake_.signal();
     }
 
 private:
     void on_wake() {
-        std::uint64_t count = 0;
-        [[maybe_unused]] const auto n = ::read(wake_, &count, sizeof count);
+        wake_.drain();
         if (stopping_) {
             loop_.stop();
             return;
@@ -373,7 +367,7 @@ private:
     std::atomic<std::uint64_t>& heartbeat_;
     sys::EventLoop loop_;
     sys::Timer timer_;
-    int wake_;
+    const sys::EventFd& wake_;
     std::optional<serial::Port> port_;
     std::unique_ptr<serial::Direction> direction_;
     std::optional<serial::TransmitTracker> tracker_;
@@ -388,7 +382,7 @@ std::expected<std::unique_ptr<BusLoop::Impl>, std::string> BusLoop::Impl::create
                                                                                 const master::EngineCallbacks& callbacks,
                                                                                 const LoopOptions& options,
                                                                                 BusLoop& outer) {
-    const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_.get()};
+    const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_};
     auto thread = std::make_unique<BusThread>(bus, callbacks, options, shared);
     if (const auto& broken = thread->broken()) {
         return std::unexpected(*broken);

@@ -1,6 +1,5 @@
 #include "bus/handover.hpp"
 
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,11 +21,7 @@ Handover::Handover(std::size_t queue_limit, std::size_t drives)
     : requests(2 * queue_limit + drives),
       results(2 * queue_limit + drives),
       snapshots(std::max(kMinSnapshots, kSnapshotsPerDrive * drives)),
-      ready_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
-    if (!ready_) {
-        throw std::runtime_error("eventfd for the bus thread's hand-over: refused by the kernel");
-    }
-}
+      ready_("eventfd for the bus thread's hand-over") {}
 
 void Handover::put(const Finished& f) noexcept {
     if (!results.try_push(f)) {
@@ -47,14 +42,11 @@ void Handover::flush() noexcept {
         return;
     }
     unflushed_ = false;
-    const std::uint64_t one = 1;
-    // Cannot block (non-blocking eventfd) and cannot fail short of a counter overflow.
-    [[maybe_unused]] const auto n = ::write(ready_.get(), &one, sizeof one);
+    ready_.signal();
 }
 
 void Handover::acknowledge() const noexcept {
-    std::uint64_t count = 0;
-    [[maybe_unused]] const auto n = ::read(ready_.get(), &count, sizeof count);
+    ready_.drain();
 }
 
 }  // namespace drivebus::bus

@@ -1,7 +1,6 @@
 #include "ipc/bus_service.hpp"
 
 #include <pthread.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +17,7 @@
 #include "ipc/publisher.hpp"
 #include "ipc/service.hpp"
 #include "log/log.hpp"
+#include "sys/event_fd.hpp"
 #include "sys/event_loop.hpp"
 
 namespace drivebus::ipc {
@@ -36,18 +36,14 @@ struct BusService::Impl {
           leases(b, random_tokens()),
           publisher(b, layout),
           intake(b, l, leases),
-          stop_fd(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
-        if (!stop_fd) {
-            throw std::runtime_error("eventfd for bus " + b.name + "'s ipc thread: refused by the kernel");
-        }
-    }
+          stop_fd("eventfd for bus " + b.name + "'s ipc thread") {}
 
     const config::BusConfig& bus;
     bus::BusLoop& loop;
     LeasePolicy leases;
     Publisher publisher;
     Intake intake;
-    sys::UniqueFd stop_fd;
+    sys::EventFd stop_fd;
     std::thread thread;
 
     rtu::Instant next_status{};
@@ -76,7 +72,7 @@ struct BusService::Impl {
                                                  timer.acknowledge();
                                                  tick(timer);
                                              }),
-                                  events.add(stop_fd.get(), [&] { events.stop(); })};
+                                  events.add(stop_fd.fd(), [&] { events.stop(); })};
         for (const auto& a : added) {
             if (!a) {
                 log::error(fmt::format("bus {}: ipc event loop: {}: clients are not served", bus.name, a.error().message()));
@@ -202,8 +198,7 @@ void BusService::start(const std::function<void()>& on_thread) {
 
 void BusService::stop() {
     if (impl_->thread.joinable()) {
-        const std::uint64_t one = 1;
-        [[maybe_unused]] const auto n = ::write(impl_->stop_fd.get(), &one, sizeof one);
+        impl_->stop_fd.signal();
         impl_->thread.join();
     }
 }

@@ -1,10 +1,7 @@
 #include "ipc/host.hpp"
 
 #include <grp.h>
-#include <pwd.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -25,6 +22,7 @@
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
 #include "ipc/leftovers.hpp"
 #include "ipc/seal.hpp"
+#include "sys/local.hpp"
 #include "sys/posix.hpp"
 
 namespace drivebus::ipc {
@@ -43,27 +41,6 @@ constexpr std::uint32_t kRequestQueue = 256;  // per server
 
 bool group_exists(const std::string& name) {
     return ::getgrnam(name.c_str()) != nullptr;
-}
-
-std::vector<std::string> groups_of_this_user() {
-    std::vector<std::string> names;
-    const auto* pw = ::getpwuid(::geteuid());
-    if (pw == nullptr) {
-        return names;
-    }
-    int n = 64;
-    std::vector<gid_t> gids(static_cast<std::size_t>(n));
-    if (::getgrouplist(pw->pw_name, pw->pw_gid, gids.data(), &n) < 0) {
-        gids.resize(static_cast<std::size_t>(n));
-        ::getgrouplist(pw->pw_name, pw->pw_gid, gids.data(), &n);
-    }
-    gids.resize(static_cast<std::size_t>(std::max(n, 0)));
-    for (const auto gid : gids) {
-        if (const auto* g = ::getgrgid(gid)) {
-            names.emplace_back(g->gr_name);
-        }
-    }
-    return names;
 }
 
 std::string primary_group() {
@@ -176,7 +153,7 @@ std::expected<Layout, std::string> plan_layout(const config::Config& config) {
                                            "(systemd-sysusers drivebus.conf) or name existing groups in [ipc]",
                                            missing));
     }
-    const auto mine = groups_of_this_user();
+    const auto mine = sys::groups_of_this_user();
     if (std::ranges::find(mine, ipc.daemon_group) == mine.end()) {
         return std::unexpected(fmt::format("[ipc]: this user is not in daemon_group {}, so it could not publish; "
                                            "run drivebusd as the drivebus user or add the group "
@@ -196,17 +173,9 @@ std::expected<Layout, std::string> plan_layout(const config::Config& config) {
 }
 
 bool roudi_running() {
-    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    if (fd < 0) {
-        return false;
-    }
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof(addr.sun_path), "%s%s", iox::platform::IOX_UDS_SOCKET_PATH_PREFIX,
-                  iox::roudi::IPC_CHANNEL_ROUDI_NAME);
-    const auto rc = sys::posix_call("connect", [&] { return ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr); });
-    ::close(fd);
-    return rc.has_value();
+    std::string path = iox::platform::IOX_UDS_SOCKET_PATH_PREFIX;
+    path += iox::roudi::IPC_CHANNEL_ROUDI_NAME;
+    return sys::datagram_socket_answers(path).has_value();
 }
 
 std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Config& config, const std::string& name) {

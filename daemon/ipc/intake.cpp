@@ -1,6 +1,5 @@
 #include "ipc/intake.hpp"
 
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +10,7 @@
 #include "iceoryx_posh/popo/untyped_server.hpp"
 #include "ipc/intake_core.hpp"
 #include "ipc/service.hpp"
+#include "sys/event_fd.hpp"
 
 namespace drivebus::ipc {
 
@@ -19,12 +19,9 @@ using iox::popo::RequestHeader;
 struct Intake::Impl {
     Impl(const config::BusConfig& b, bus::BusLoop& l, LeasePolicy& leases)
         : loop(l),
-          ready(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)),
+          ready("eventfd for bus " + b.name + "'s requests"),
           server(service(b.name, shm::kRequestEvent), iox::popo::ServerOptions{}),
           core(b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); }) {
-        if (!ready) {
-            throw std::runtime_error("eventfd for bus " + b.name + "'s requests: refused by the kernel");
-        }
         if (listener.attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
                                  iox::popo::createNotificationCallback(on_request, *this))
                 .has_error()) {
@@ -38,10 +35,7 @@ struct Intake::Impl {
     Impl& operator=(Impl&&) = delete;
 
     // On iceoryx's listener thread: only wakes the ipc thread.
-    static void on_request(iox::popo::UntypedServer* /*server*/, Impl* self) {
-        const std::uint64_t one = 1;
-        [[maybe_unused]] const auto n = ::write(self->ready.get(), &one, sizeof one);
-    }
+    static void on_request(iox::popo::UntypedServer* /*server*/, Impl* self) { self->ready.signal(); }
 
     void send(RequestHeader& route, const shm::Response& response) {
         auto loaned = server.loan(&route, sizeof(shm::Response), alignof(shm::Response));
@@ -53,7 +47,7 @@ struct Intake::Impl {
     }
 
     bus::BusLoop& loop;
-    sys::UniqueFd ready;
+    sys::EventFd ready;
     iox::popo::UntypedServer server;
     IntakeCore<RequestHeader> core;
     iox::popo::Listener listener;
@@ -65,12 +59,11 @@ Intake::Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& le
 Intake::~Intake() = default;
 
 int Intake::ready_fd() const noexcept {
-    return impl_->ready.get();
+    return impl_->ready.fd();
 }
 
 void Intake::take(rtu::Instant now) {
-    std::uint64_t count = 0;
-    [[maybe_unused]] const auto n = ::read(impl_->ready.get(), &count, sizeof count);
+    impl_->ready.drain();
     for (;;) {
         auto taken = impl_->server.take();
         if (taken.has_error()) {

@@ -65,6 +65,9 @@ enum class ErrorKind : std::uint8_t {
 };
 
 [[nodiscard]] DRIVEBUS_API std::string_view to_string(ErrorKind kind) noexcept;
+// A Modbus exception code (Error::exception) in words: 2 -> "illegal data address"; a code
+// Modbus does not define -> "undefined exception code".
+[[nodiscard]] DRIVEBUS_API std::string_view exception_name(std::uint8_t code) noexcept;
 
 struct Error {
     ErrorKind kind = ErrorKind::InvalidArgument;

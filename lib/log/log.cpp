@@ -1,7 +1,6 @@
 #include "log/log.hpp"
 
 #include <poll.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include "sys/event_fd.hpp"
 #include "sys/posix.hpp"
 
 namespace drivebus::log {
@@ -58,7 +58,7 @@ void print(Level level, std::string_view raw) {
 // threads only write its eventfd, they never take its mutex.
 class Drainer {
 public:
-    Drainer() : wake_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
+    Drainer() : wake_("eventfd for the log") {
         thread_ = std::thread([this] { run(); });
     }
     ~Drainer() {
@@ -80,18 +80,14 @@ public:
         ring->drain();
         std::erase(rings_, ring);
     }
-    void poke() const noexcept {
-        const std::uint64_t one = 1;
-        [[maybe_unused]] const auto n = ::write(wake_.get(), &one, sizeof one);
-    }
+    void poke() const noexcept { wake_.signal(); }
 
 private:
     void run() {
         while (!stopping_) {
-            pollfd p{wake_.get(), POLLIN, 0};
+            pollfd p{wake_.fd(), POLLIN, 0};
             (void)::poll(&p, 1, 1000);
-            std::uint64_t count = 0;
-            [[maybe_unused]] const auto n = ::read(wake_.get(), &count, sizeof count);
+            wake_.drain();
             const std::lock_guard lock(mutex_);
             for (auto* ring : rings_) {
                 ring->drain();
@@ -99,7 +95,7 @@ private:
         }
     }
 
-    sys::UniqueFd wake_;
+    sys::EventFd wake_;
     std::mutex mutex_;  // the drain thread and the threads that create and destroy rings
     std::vector<Ring*> rings_;
     std::atomic<bool> stopping_{false};

@@ -149,8 +149,8 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
     };
     // Start from the driver's own settings so that fields we do not manage survive.
     serial_rs485 conf{};
-    if (::ioctl(fd, TIOCGRS485, &conf) != 0) {
-        return failed("TIOCGRS485", errno);
+    if (auto got = sys::posix_call("TIOCGRS485", [&] { return ::ioctl(fd, TIOCGRS485, &conf); }); !got) {
+        return failed("TIOCGRS485", got.error().error);
     }
     conf.flags &= ~kOurFlags;
     conf.flags |= SER_RS485_ENABLED;
@@ -160,14 +160,14 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
     conf.delay_rts_before_send = options.delay_before_send_ms;
     conf.delay_rts_after_send = options.delay_after_send_ms;
     const serial_rs485 wanted = conf;
-    if (::ioctl(fd, TIOCSRS485, &conf) != 0) {
-        return failed("TIOCSRS485", errno);
+    if (auto set = sys::posix_call("TIOCSRS485", [&] { return ::ioctl(fd, TIOCSRS485, &conf); }); !set) {
+        return failed("TIOCSRS485", set.error().error);
     }
     // Drivers adjust what they cannot do (clamp delays, drop RX_DURING_TX, fix equal RTS
     // levels) without failing: read back and refuse a configuration we did not ask for.
     serial_rs485 got{};
-    if (::ioctl(fd, TIOCGRS485, &got) != 0) {
-        return failed("TIOCGRS485", errno);
+    if (auto read = sys::posix_call("TIOCGRS485", [&] { return ::ioctl(fd, TIOCGRS485, &got); }); !read) {
+        return failed("TIOCGRS485", read.error().error);
     }
     if (auto changed = rs485_differences(wanted, got); !changed.empty()) {
         return std::unexpected(DirectionError{device_of(fd) + ": the driver changed the RS485 settings: " + changed});

@@ -129,7 +129,7 @@ class KernelUartControl final : public UartControl {
 public:
     std::optional<bool> transmitter_empty(int fd) override {
         int lsr = 0;
-        if (::ioctl(fd, TIOCSERGETLSR, &lsr) != 0) {
+        if (!sys::posix_call("TIOCSERGETLSR", [&] { return ::ioctl(fd, TIOCSERGETLSR, &lsr); })) {
             // ENOTTY, EINVAL, ENOIOCTLCMD: the driver cannot tell. Anything else (EIO on an
             // unplugged adapter) cannot tell either; the read side reports the loss.
             return std::nullopt;

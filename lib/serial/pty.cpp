@@ -16,11 +16,11 @@ std::expected<PtyPair, sys::SysError> open_pty() {
         return std::unexpected(master.error());
     }
     pair.master.reset(*master);
-    if (::grantpt(pair.master.get()) != 0) {
-        return std::unexpected(sys::SysError{"grantpt", errno});
+    if (auto granted = sys::posix_call("grantpt", [&] { return ::grantpt(pair.master.get()); }); !granted) {
+        return std::unexpected(granted.error());
     }
-    if (::unlockpt(pair.master.get()) != 0) {
-        return std::unexpected(sys::SysError{"unlockpt", errno});
+    if (auto unlocked = sys::posix_call("unlockpt", [&] { return ::unlockpt(pair.master.get()); }); !unlocked) {
+        return std::unexpected(unlocked.error());
     }
     std::array<char, 128> name{};
     if (const int rc = ::ptsname_r(pair.master.get(), name.data(), name.size()); rc != 0) {
@@ -36,9 +36,12 @@ std::expected<PtyPair, sys::SysError> open_pty() {
     // The slave side starts raw, so a program that opens it without setting termios (or a
     // test) does not have its bytes translated.
     termios tio{};
-    if (::tcgetattr(pair.slave.get(), &tio) == 0) {
-        ::cfmakeraw(&tio);
-        ::tcsetattr(pair.slave.get(), TCSANOW, &tio);
+    if (auto got = sys::posix_call("tcgetattr", [&] { return ::tcgetattr(pair.slave.get(), &tio); }); !got) {
+        return std::unexpected(got.error());
+    }
+    ::cfmakeraw(&tio);
+    if (auto set = sys::posix_call("tcsetattr", [&] { return ::tcsetattr(pair.slave.get(), TCSANOW, &tio); }); !set) {
+        return std::unexpected(set.error());
     }
     return pair;
 }

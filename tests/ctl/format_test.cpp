@@ -164,7 +164,9 @@ TEST(CtlFormat, RejectionHintsComeFromTheProfile) {
     EXPECT_EQ(rejection_hint(e, &atv21(), "read", 0x1234, 1), "profile atv21 does not list it (its registers: atv21.toml)");
     e.kind = ErrorKind::Timeout;
     EXPECT_EQ(rejection_hint(e, &atv21(), "read", 0xFD00, 1), "");
-    EXPECT_EQ(exception_text(2), "illegal data address");
+    EXPECT_EQ(exception_name(2), "illegal data address");
+    EXPECT_EQ(exception_name(6), "server device busy");
+    EXPECT_EQ(exception_name(200), "undefined exception code");
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 
 #include "rtu/codec.hpp"
 #include "serial/termios.hpp"
+#include "sys/local.hpp"
 
 namespace drivebus::test {
 namespace fs = std::filesystem;
@@ -201,13 +202,7 @@ std::string Child::output() const {
 }
 
 bool roudi_answers() {
-    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof addr.sun_path, "/tmp/roudi");
-    const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
-    ::close(fd);
-    return ok;
+    return sys::datagram_socket_answers("/tmp/roudi").has_value();
 }
 
 bool roudi_gone() {

@@ -16,6 +16,7 @@
 #include "config/config.hpp"
 #include "log/log.hpp"
 #include "master/bus_engine.hpp"
+#include "sys/event_fd.hpp"
 #include "sys/seqlock.hpp"
 
 namespace drivebus::bus {
@@ -92,7 +93,7 @@ private:
     Handover handover_;
     sys::Seqlock<StatusCopy> status_;
     log::Ring log_;       // the bus thread's log lines, written by the log's drain thread
-    sys::UniqueFd wake_;  // the bus thread's: a request is waiting, or stop
+    sys::EventFd wake_;   // the bus thread's: a request is waiting, or stop
     std::unique_ptr<Impl> impl_;
     std::thread thread_;
     std::atomic<std::uint64_t> heartbeat_{0};

@@ -20,7 +20,7 @@ public:
         Handover& handover;
         sys::Seqlock<StatusCopy>& status;
         std::atomic<std::uint64_t>& heartbeat;
-        int wake;  // eventfd: a request is waiting, or stop
+        const sys::EventFd& wake;  // a request is waiting, or stop
     };
 
     // Builds the thread's loop (on the calling thread); fails when the loop cannot watch its

@@ -20,6 +20,7 @@
 #include "master/finished.hpp"
 #include "master/scheduler.hpp"
 #include "master/snapshot.hpp"
+#include "sys/event_fd.hpp"
 #include "sys/posix.hpp"
 #include "sys/spsc_ring.hpp"
 
@@ -49,11 +50,11 @@ public:
     void flush() noexcept;
 
     // The ipc side waits for this fd to be readable, then calls acknowledge() and drains.
-    [[nodiscard]] int ready_fd() const noexcept { return ready_.get(); }
+    [[nodiscard]] int ready_fd() const noexcept { return ready_.fd(); }
     void acknowledge() const noexcept;
 
 private:
-    sys::UniqueFd ready_;
+    sys::EventFd ready_;
     bool unflushed_ = false;  // the bus thread's own
 };
 

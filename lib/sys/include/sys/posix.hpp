@@ -1,5 +1,17 @@
-// Every syscall goes through posix_call(): EINTR is retried, failures become a typed error
-// that keeps errno and names the call.
+// Every system call whose result the code acts on goes through posix_call(): EINTR is retried,
+// a failure becomes a typed error that keeps errno and names the call. Called directly, on
+// purpose, and nowhere else:
+//   - close(), which must not be retried on EINTR on Linux (the descriptor is gone either way);
+//   - clean-ups whose failure changes nothing: unlinking our own lock or temporary file,
+//     EPOLL_CTL_DEL of a descriptor being closed, disarming a timer, emptying a timerfd that
+//     fired, TIOCNXCL and tcflush on a port being closed or drained;
+//   - writing to and draining an eventfd (sys::EventFd says why neither can fail usefully);
+//   - questions whose failure is the answer: kill(pid, 0) as a liveness probe (EPERM: alive),
+//     access() and stat() of a path to tell a user what is missing;
+//   - the terminal's own read and write in drivebusctl watch, which handle EINTR themselves;
+//   - calls that return an error number instead of setting errno (ttyname_r, ptsname_r) or
+//     that touch no kernel object (cfsetispeed, cfsetospeed, cfmakeraw), and calls that cannot
+//     fail (getpid, geteuid, getegid; the group database's lookups, whose null is the answer).
 #pragma once
 
 #include <cerrno>
