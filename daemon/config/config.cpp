@@ -9,6 +9,7 @@
 #include <system_error>
 
 #include "drivebus/shm.hpp"
+#include "keys.hpp"
 #include "read.hpp"
 
 namespace drivebus::config {
@@ -18,6 +19,7 @@ namespace fs = std::filesystem;
 
 constexpr std::uintmax_t kMaxFileSize = 1U << 20;  // a configuration is a few KiB
 
+// In the order of RealtimeMode's and RouDiMode's enumerators, which the tables read by index.
 constexpr std::array<std::string_view, 3> kRealtimeModes = {"off", "best-effort", "required"};
 constexpr std::array<std::string_view, 3> kRouDiModes = {"auto", "embedded", "external"};
 
@@ -63,19 +65,17 @@ void read_buses(detail::Section& root, detail::Errors& errors, const LoadOptions
 }  // namespace
 
 namespace detail {
+namespace {
 
-RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
-    Section s(table, "realtime", errors);
-    s.allow_only({"mode", "priority", "cpus", "lock_memory", "send_spin"});
-    RealtimeConfig realtime;
-    if (const auto mode = choice(s, "mode", kRealtimeModes)) {
-        static constexpr std::array<RealtimeMode, 3> kValues = {RealtimeMode::Off, RealtimeMode::BestEffort,
-                                                                RealtimeMode::Required};
-        realtime.mode = kValues.at(*mode);
-    }
-    realtime.priority = static_cast<int>(s.integer("priority", 1, 99).value_or(realtime.priority));
-    // CPU_SETSIZE is 1024.
-    const auto cpus = s.integers("cpus", 0, 1023).value_or(std::vector<std::int64_t>{});
+static_assert(in_enum_order(kRealtimeModes, {RealtimeMode::Off, RealtimeMode::BestEffort, RealtimeMode::Required}));
+static_assert(in_enum_order(kRouDiModes, {RouDiMode::Auto, RouDiMode::Embedded, RouDiMode::External}));
+
+using namespace std::chrono_literals;
+using RealtimeKeys = Keys<RealtimeConfig>;
+using IpcKeys = Keys<IpcConfig>;
+
+void read_cpus(Section& s, const toml::table& /*table*/, const Key<RealtimeConfig>& key, RealtimeConfig& realtime) {
+    const auto cpus = s.integers(key.name, key.range.lo, key.range.hi).value_or(std::vector<std::int64_t>{});
     for (std::size_t i = 0; i < cpus.size(); ++i) {
         const auto cpu = static_cast<int>(cpus[i]);
         if (std::ranges::find(realtime.cpus, cpu) != realtime.cpus.end()) {
@@ -83,46 +83,83 @@ RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
         }
         realtime.cpus.push_back(cpu);
     }
-    realtime.lock_memory = s.boolean("lock_memory").value_or(realtime.lock_memory);
-    realtime.send_spin = duration(s, table, "send_spin", Duration{}, std::chrono::milliseconds(1))
-                             .value_or(realtime.send_spin);
+}
+
+constexpr Table<RealtimeConfig, 5> kRealtimeKeys = {
+    RealtimeKeys::choice<&RealtimeConfig::mode>(
+        "mode", kRealtimeModes,
+        "off: normal scheduling; best-effort: SCHED_FIFO and locked memory when allowed; required: or no start"),
+    RealtimeKeys::integer<&RealtimeConfig::priority>("priority", 1, 99, "SCHED_FIFO priority of the bus threads"),
+    // CPU_SETSIZE is 1024.
+    RealtimeKeys::custom("cpus", "array of integers", Need::Optional, integers(0, 1023, "each"), read_cpus,
+                         RealtimeKeys::shown<&RealtimeConfig::cpus>, "CPU affinity of the bus threads; none: any"),
+    RealtimeKeys::boolean<&RealtimeConfig::lock_memory>("lock_memory",
+                                                        "lock the memory drivebusd uses, once it is set up"),
+    RealtimeKeys::duration<&RealtimeConfig::send_spin>(
+        "send_spin", 0ns, 1ms, "wake this long before a request is due and spin on the clock for the rest; 0: off"),
+};
+
+// POSIX portable user and group names, as useradd takes them.
+template <std::string IpcConfig::*Group>
+void read_group(Section& s, const toml::table& /*table*/, const Key<IpcConfig>& key, IpcConfig& ipc) {
+    auto name = s.string(key.name);
+    if (!name) {
+        return;
+    }
+    const bool ok = !name->empty() && (*name)[0] != '-' && std::ranges::all_of(*name, [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
+               c == '.';
+    });
+    if (!ok) {
+        s.fail(std::string(key.name) + " " + in_quotes(*name) + " is not a valid group name");
+    } else {
+        fits_shm(s, key.name, *name, shm::kGroupSize, "a group name");
+    }
+    ipc.*Group = std::move(*name);
+}
+
+// The last of the three groups: the rule that they differ is checked as soon as all are read.
+void read_daemon_group(Section& s, const toml::table& table, const Key<IpcConfig>& key, IpcConfig& ipc) {
+    read_group<&IpcConfig::daemon_group>(s, table, key, ipc);
+    if (ipc.daemon_group == ipc.watch_group || ipc.daemon_group == ipc.control_group ||
+        ipc.watch_group == ipc.control_group) {
+        s.fail("watch_group, control_group and daemon_group must be three different groups");
+    }
+}
+
+constexpr Table<IpcConfig, 5> kIpcKeys = {
+    IpcKeys::choice<&IpcConfig::roudi>("roudi", kRouDiModes,
+                                       "where RouDi runs: joined if one answers, else embedded; embedded; joined"),
+    IpcKeys::custom("watch_group", "string", Need::Optional, words("a group name"), read_group<&IpcConfig::watch_group>,
+                    IpcKeys::shown<&IpcConfig::watch_group>, "members may subscribe to snapshots and status"),
+    IpcKeys::custom("control_group", "string", Need::Optional, words("a group name"),
+                    read_group<&IpcConfig::control_group>, IpcKeys::shown<&IpcConfig::control_group>,
+                    "members may send requests"),
+    IpcKeys::custom("daemon_group", "string", Need::Optional, words("a group name"), read_daemon_group,
+                    IpcKeys::shown<&IpcConfig::daemon_group>, "drivebusd's user alone: the writer of its segment"),
+    IpcKeys::integer<&IpcConfig::max_clients>("max_clients", 1, 200, "sizes the embedded RouDi's shared memory"),
+};
+
+}  // namespace
+
+RealtimeConfig read_realtime(const toml::table& table, Errors& errors) {
+    Section s(table, "realtime", errors);
+    allow_only(s, table, {}, kRealtimeKeys);
+    RealtimeConfig realtime;
+    read_keys(s, table, kRealtimeKeys, realtime);
     return realtime;
 }
 
 IpcConfig read_ipc(const toml::table& table, Errors& errors) {
     Section s(table, "ipc", errors);
-    s.allow_only({"roudi", "watch_group", "control_group", "daemon_group", "max_clients"});
+    allow_only(s, table, {}, kIpcKeys);
     IpcConfig ipc;
-    if (const auto mode = choice(s, "roudi", kRouDiModes)) {
-        static constexpr std::array<RouDiMode, 3> kValues = {RouDiMode::Auto, RouDiMode::Embedded,
-                                                             RouDiMode::External};
-        ipc.roudi = kValues.at(*mode);
-    }
-    const auto group = [&](std::string_view key, std::string& out) {
-        if (auto name = s.string(key)) {
-            // POSIX portable user and group names, as useradd takes them.
-            const bool ok = !name->empty() && (*name)[0] != '-' &&
-                            std::ranges::all_of(*name, [](char c) {
-                                return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                                       c == '_' || c == '-' || c == '.';
-                            });
-            if (!ok) {
-                s.fail(std::string(key) + " " + in_quotes(*name) + " is not a valid group name");
-            } else {
-                fits_shm(s, key, *name, shm::kGroupSize, "a group name");
-            }
-            out = std::move(*name);
-        }
-    };
-    group("watch_group", ipc.watch_group);
-    group("control_group", ipc.control_group);
-    group("daemon_group", ipc.daemon_group);
-    if (ipc.daemon_group == ipc.watch_group || ipc.daemon_group == ipc.control_group ||
-        ipc.watch_group == ipc.control_group) {
-        s.fail("watch_group, control_group and daemon_group must be three different groups");
-    }
-    ipc.max_clients = static_cast<std::size_t>(s.integer("max_clients", 1, 200).value_or(32));
+    read_keys(s, table, kIpcKeys, ipc);
     return ipc;
+}
+
+std::vector<SectionReference> top_reference() {
+    return {described("[realtime]", kRealtimeKeys), described("[ipc]", kIpcKeys)};
 }
 
 }  // namespace detail

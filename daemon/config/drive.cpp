@@ -4,6 +4,7 @@
 #include <set>
 
 #include "drivebus/shm.hpp"
+#include "keys.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {
@@ -56,34 +57,133 @@ void check_line(Section& s, const Profile& profile, const rtu::LineFormat& forma
     }
 }
 
-std::optional<Duration> read_keep_alive(Section& s, const toml::table& table) {
-    if (const auto* text = table.get_as<std::string>("keep_alive"); text != nullptr && text->get() == "off") {
-        return std::nullopt;
+// A drive while its keys are read: what their readers need beyond the drive itself.
+struct DriveDraft {
+    DriveConfig drive;
+    ProfileCache* profiles = nullptr;
+    const rtu::LineFormat* format = nullptr;  // the bus's line, checked against the profile
+    std::optional<std::int64_t> address;      // checked against the profile once it is known
+    // The write_block key, read by read_blocks() once the polls are: the indirect blocks are
+    // checked last, when the rest of the drive is valid.
+    std::string_view write_block;
+};
+
+using DriveKeys = Keys<DriveDraft>;
+
+void read_name(Section& s, const toml::table& /*table*/, const Key<DriveDraft>& key, DriveDraft& draft) {
+    if (auto name = s.string(key.name, key.need)) {
+        if (!valid_name(*name)) {
+            s.fail("name " + in_quotes(*name) + " is not made of a-z, 0-9, '_' and '-'");
+        } else {
+            fits_shm(s, key.name, *name, shm::kNameSize, "a drive name");
+        }
+        draft.drive.name = std::move(*name);
     }
-    // Shorter would keep the line busy with keep-alives alone.
-    return duration(s, table, "keep_alive", 10ms, 1h);
 }
+
+void read_address(Section& s, const toml::table& /*table*/, const Key<DriveDraft>& key, DriveDraft& draft) {
+    draft.address = s.integer(key.name, -kAnyInteger, kAnyInteger, key.need);
+}
+
+// The address read before, against the profile's range.
+void check_address(Section& s, DriveDraft& draft) {
+    if (!draft.address) {
+        return;
+    }
+    const auto& profile = draft.drive.profile;
+    // 0 is broadcast, 248-255 reserved: a profile's range never includes them.
+    const std::int64_t lo = profile ? profile->address_min : 1;
+    const std::int64_t hi = profile ? profile->address_max : 247;
+    if (*draft.address < lo || *draft.address > hi) {
+        s.fail("address " + std::to_string(*draft.address) + " is outside " + std::to_string(lo) + "-" +
+               std::to_string(hi) + (profile ? " for " + title_of(*profile) : ""));
+    } else {
+        draft.drive.address = static_cast<std::uint8_t>(*draft.address);
+    }
+}
+
+// The profile decides which addresses and line formats are valid: both are checked as soon as
+// it is known.
+void read_profile(Section& s, const toml::table& /*table*/, const Key<DriveDraft>& key, DriveDraft& draft) {
+    auto& drive = draft.drive;
+    if (const auto type = s.string(key.name, key.need);
+        type && fits_shm(s, key.name, *type, shm::kProfileSize, "a snapshot's profile type")) {
+        auto profile = draft.profiles->get(*type);
+        if (profile) {
+            drive.profile = std::move(*profile);
+        } else {
+            s.fail(profile.error());
+        }
+    }
+    check_address(s, draft);
+    if (drive.profile) {
+        check_line(s, *drive.profile, *draft.format);
+    }
+}
+
+void read_keep_alive(Section& s, const toml::table& table, const Key<DriveDraft>& key, DriveDraft& draft) {
+    if (const auto* text = table.get_as<std::string>(key.name); text != nullptr && text->get() == "off") {
+        draft.drive.keep_alive = std::nullopt;
+        return;
+    }
+    draft.drive.keep_alive = duration(s, table, key.name, key.range.shortest, key.range.longest);
+}
+
+// In LeaseFallback's order.
+constexpr std::array<std::string_view, 3> kFallbacks = {"hold", "stop", "freewheel"};
+static_assert(in_enum_order(kFallbacks, {LeaseFallback::Hold, LeaseFallback::Stop, LeaseFallback::Freewheel}));
 
 // The fallback needs the profile's command word for it; without "fallback", a drive whose
 // profile can stop it stops, others hold.
-void read_lease(Section& s, const toml::table& table, DriveConfig& drive) {
-    drive.lease = duration(s, table, "lease", 100ms, 1h).value_or(drive.lease);
+void read_fallback(Section& s, const toml::table& /*table*/, const Key<DriveDraft>& key, DriveDraft& draft) {
+    auto& drive = draft.drive;
     const ControlInfo* control = drive.profile && drive.profile->control ? &*drive.profile->control : nullptr;
-    static constexpr std::array<std::string_view, 3> kNames = {"hold", "stop", "freewheel"};
-    if (const auto which = choice(s, "fallback", kNames)) {
+    if (const auto which = choice(s, key.name, key.range.names)) {
         drive.fallback = static_cast<LeaseFallback>(*which);
         const bool stop_missing = drive.fallback == LeaseFallback::Stop && (control == nullptr || !control->stop);
         const bool coast_missing =
             drive.fallback == LeaseFallback::Freewheel && (control == nullptr || !control->freewheel);
         if (drive.profile && (stop_missing || coast_missing)) {
-            s.fail("fallback \"" + std::string(kNames.at(*which)) + "\" needs a " + std::string(kNames.at(*which)) +
-                   " command word, which profile " + in_quotes(drive.profile->type) +
-                   " does not define (use \"hold\")");
+            const std::string name(key.range.names[*which]);
+            s.fail("fallback \"" + name + "\" needs a " + name + " command word, which profile " +
+                   in_quotes(drive.profile->type) + " does not define (use \"hold\")");
         }
     } else if (control != nullptr && control->stop) {
         drive.fallback = LeaseFallback::Stop;
     }
 }
+
+void read_write_block(Section& /*s*/, const toml::table& /*table*/, const Key<DriveDraft>& key, DriveDraft& draft) {
+    draft.write_block = key.name;
+}
+
+std::string shown_off(const Key<DriveDraft>& /*key*/) {
+    return "\"off\"";
+}
+
+std::string shown_fallback(const Key<DriveDraft>& /*key*/) {
+    return "\"stop\" when the profile has a stop command word, else \"hold\"";
+}
+
+constexpr Table<DriveDraft, 7> kDriveKeys = {
+    DriveKeys::custom("name", "string", Need::Required, words("[a-z0-9_-]+"), read_name, nullptr,
+                      "unique across all buses"),
+    DriveKeys::custom("address", "integer", Need::Required, words("the profile's address_min-address_max"),
+                      read_address, nullptr, "Modbus slave address, unique on the bus"),
+    DriveKeys::custom("profile", "string", Need::Required, words("a profile type"), read_profile, nullptr,
+                      "the drive's profile, looked up by type"),
+    // Shorter would keep the line busy with keep-alives alone.
+    DriveKeys::custom("keep_alive", "duration or \"off\"", Need::Optional, durations(10ms, 1h), read_keep_alive,
+                      shown_off, "a request at least this often, inside the drive's own Modbus time-out"),
+    DriveKeys::duration<&DriveDraft::drive, &DriveConfig::lease>(
+        "lease", 100ms, 1h, "a client writing the command or reference must renew its control lease within this"),
+    DriveKeys::custom("fallback", "string", Need::Optional, names(kFallbacks), read_fallback, shown_fallback,
+                      "what drivebusd does when a lease runs out: nothing, stop, or freewheel"),
+    DriveKeys::custom("write_block", "array of register names", Need::Optional,
+                      words("the profile's write block's min_quantity-max_quantity registers"), read_write_block,
+                      DriveKeys::shown<&DriveDraft::drive, &DriveConfig::write_block>,
+                      "the registers the indirect write block selects, slot by slot"),
+};
 
 }  // namespace
 
@@ -93,42 +193,10 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
     if (const auto* name = table.get_as<std::string>("name"); name != nullptr && valid_name(name->get())) {
         s.rename(bus + " drive " + in_quotes(name->get()));
     }
-    s.allow_only({"name", "address", "profile", "keep_alive", "lease", "fallback", "poll", "write_block"});
-    DriveConfig drive;
-    if (auto name = s.string("name", Need::Required)) {
-        if (!valid_name(*name)) {
-            s.fail("name " + in_quotes(*name) + " is not made of a-z, 0-9, '_' and '-'");
-        } else {
-            fits_shm(s, "name", *name, shm::kNameSize, "a drive name");
-        }
-        drive.name = std::move(*name);
-    }
-    const auto address = s.integer("address", -kAnyInteger, kAnyInteger, Need::Required);
-    if (const auto type = s.string("profile", Need::Required);
-        type && fits_shm(s, "profile", *type, shm::kProfileSize, "a snapshot's profile type")) {
-        auto profile = profiles.get(*type);
-        if (profile) {
-            drive.profile = std::move(*profile);
-        } else {
-            s.fail(profile.error());
-        }
-    }
-    if (address) {
-        // 0 is broadcast, 248-255 reserved: a profile's range never includes them.
-        const std::int64_t lo = drive.profile ? drive.profile->address_min : 1;
-        const std::int64_t hi = drive.profile ? drive.profile->address_max : 247;
-        if (*address < lo || *address > hi) {
-            s.fail("address " + std::to_string(*address) + " is outside " + std::to_string(lo) + "-" +
-                   std::to_string(hi) + (drive.profile ? " for " + title_of(*drive.profile) : ""));
-        } else {
-            drive.address = static_cast<std::uint8_t>(*address);
-        }
-    }
-    if (drive.profile) {
-        check_line(s, *drive.profile, format);
-    }
-    drive.keep_alive = read_keep_alive(s, table);
-    read_lease(s, table, drive);
+    allow_only(s, table, {"poll"}, kDriveKeys);
+    DriveDraft draft{{}, &profiles, &format, std::nullopt, {}};
+    read_keys(s, table, kDriveKeys, draft);
+    auto& drive = draft.drive;
     const auto polls = s.tables("poll");
     std::set<std::string, std::less<>> names;
     std::set<std::uint16_t> polled;  // every register the snapshot carries, once
@@ -149,9 +217,13 @@ DriveConfig read_drive(const toml::table& table, std::size_t index, const std::s
         drive.polls.push_back(std::move(poll));
     }
     if (!errors.any()) {
-        read_blocks(s, drive);
+        read_blocks(s, drive, draft.write_block);
     }
-    return drive;
+    return std::move(drive);
+}
+
+SectionReference drive_reference() {
+    return described("[[bus.drive]]", kDriveKeys);
 }
 
 }  // namespace drivebus::config::detail

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 
+#include "keys.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {
@@ -60,27 +61,44 @@ std::optional<PolledRegister> resolve(Section& s, const Profile& profile, const 
     return PolledRegister{info->name, *info->address};
 }
 
-void read_registers(Section& s, const toml::table& table, const Profile* profile, PollGroup& poll) {
-    const auto* node = table.get("registers");
+// A poll group while its keys are read, with the drive's profile its registers resolve against.
+struct PollDraft {
+    PollGroup poll;
+    const Profile* profile = nullptr;  // null: its loading failed and was reported
+};
+
+using PollKeys = Keys<PollDraft>;
+
+void read_name(Section& s, const toml::table& /*table*/, const Key<PollDraft>& key, PollDraft& draft) {
+    if (auto name = s.string(key.name)) {
+        if (!valid_name(*name)) {
+            s.fail("name " + in_quotes(*name) + " is not made of a-z, 0-9, '_' and '-'");
+        }
+        draft.poll.name = std::move(*name);
+    }
+}
+
+void read_registers(Section& s, const toml::table& table, const Key<PollDraft>& key, PollDraft& draft) {
+    const auto* node = table.get(key.name);
     if (node == nullptr) {
-        s.fail("missing key 'registers'");
+        s.fail("missing key " + in_quotes(key.name));
         return;
     }
     const auto* array = node->as_array();
     if (array == nullptr) {
-        s.fail("registers must be an array of register names or numbers, e.g. [\"FD00\", \"0xFD01\"]");
+        s.fail(std::string(key.name) + " must be an array of register names or numbers, e.g. [\"FD00\", \"0xFD01\"]");
         return;
     }
     if (array->empty()) {
-        s.fail("registers is empty");
+        s.fail(std::string(key.name) + " is empty");
         return;
     }
-    if (profile == nullptr) {
+    if (draft.profile == nullptr) {
         return;  // its loading failed and was reported
     }
     std::map<std::uint16_t, std::size_t> seen;
     for (std::size_t i = 0; i < array->size(); ++i) {
-        auto reg = resolve(s, *profile, (*array)[i], i);
+        auto reg = resolve(s, *draft.profile, (*array)[i], i);
         if (!reg) {
             return;
         }
@@ -88,9 +106,24 @@ void read_registers(Section& s, const toml::table& table, const Profile* profile
             s.fail(element(i) + " " + reg->name + " is already " + element(it->second));
             return;
         }
-        poll.registers.push_back(std::move(*reg));
+        draft.poll.registers.push_back(std::move(*reg));
     }
 }
+
+std::string shown_numbered(const Key<PollDraft>& /*key*/) {
+    return "\"group<N>\"";  // N counts from 1: read_poll() names it
+}
+
+constexpr Table<PollDraft, 4> kPollKeys = {
+    PollKeys::custom("name", "string", Need::Optional, words("[a-z0-9_-]+"), read_name, shown_numbered,
+                     "unique in the drive"),
+    PollKeys::custom("registers", "array", Need::Required, words("not empty, no register twice"), read_registers,
+                     nullptr, "register names or numbers, read in the order given"),
+    PollKeys::duration<&PollDraft::poll, &PollGroup::period>("period", 1ms, 1h, "how often the group is read",
+                                                             Need::Required),
+    PollKeys::boolean<&PollDraft::poll, &PollGroup::indirect>("indirect",
+                                                              "read through the profile's indirect read block"),
+};
 
 // One FC03 at the block's address returns the registers its selectors chose, in slot order.
 void check_indirect(Section& s, const Profile& profile, const PollGroup& poll) {
@@ -129,22 +162,19 @@ PollGroup read_poll(const toml::table& table, std::size_t index, const std::stri
     if (const auto* name = table.get_as<std::string>("name"); name != nullptr && valid_name(name->get())) {
         s.rename(drive + " poll " + in_quotes(name->get()));
     }
-    s.allow_only({"name", "registers", "period", "indirect"});
-    PollGroup poll;
+    allow_only(s, table, {}, kPollKeys);
+    PollDraft draft{{}, profile};
+    auto& poll = draft.poll;
     poll.name = "group" + std::to_string(index + 1);
-    if (auto name = s.string("name")) {
-        if (!valid_name(*name)) {
-            s.fail("name " + in_quotes(*name) + " is not made of a-z, 0-9, '_' and '-'");
-        }
-        poll.name = std::move(*name);
-    }
-    read_registers(s, table, profile, poll);
-    poll.period = duration(s, table, "period", 1ms, 1h, Need::Required).value_or(Duration{});
-    poll.indirect = s.boolean("indirect").value_or(false);
+    read_keys(s, table, kPollKeys, draft);
     if (poll.indirect && profile != nullptr && !errors.any()) {
         check_indirect(s, *profile, poll);
     }
-    return poll;
+    return std::move(poll);
+}
+
+SectionReference poll_reference() {
+    return described("[[bus.drive.poll]]", kPollKeys);
 }
 
 }  // namespace drivebus::config::detail

@@ -11,8 +11,10 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "config/config.hpp"
+#include "config/reference.hpp"
 #include "profile/toml_reader.hpp"
 
 namespace drivebus::config::detail {
@@ -72,9 +74,16 @@ using DriveNames = std::map<std::string, std::string, std::less<>>;
 // `bus` names the bus in errors; `format` is the bus's line, checked against the profile.
 [[nodiscard]] DriveConfig read_drive(const toml::table& table, std::size_t index, const std::string& bus,
                                      const rtu::LineFormat& format, Errors& errors, ProfileCache& profiles);
-// The indirect blocks drivebusd sets up on the drive (its indirect poll, its write_block key).
-void read_blocks(Section& s, DriveConfig& drive);
+// The indirect blocks drivebusd sets up on the drive (its indirect poll, its key `write_block`).
+void read_blocks(Section& s, DriveConfig& drive, std::string_view write_block);
 [[nodiscard]] PollGroup read_poll(const toml::table& table, std::size_t index, const std::string& drive,
                                   const Profile* profile, Errors& errors);
+
+// The tables of reference(): [realtime] and [ipc]; [[bus]] and its direction's keys; [[bus.drive]];
+// [[bus.drive.poll]].
+[[nodiscard]] std::vector<SectionReference> top_reference();
+[[nodiscard]] std::vector<SectionReference> bus_reference();
+[[nodiscard]] SectionReference drive_reference();
+[[nodiscard]] SectionReference poll_reference();
 
 }  // namespace drivebus::config::detail

@@ -34,8 +34,8 @@ void check_indirect_polls(Section& s, const DriveConfig& drive) {
 }
 
 // `write_block = ["FA00", "FA01"]`: the registers the write block's slots select, in order.
-std::optional<std::vector<std::uint16_t>> write_targets(Section& s, const Profile& profile) {
-    auto names = s.strings("write_block");
+std::optional<std::vector<std::uint16_t>> write_targets(Section& s, std::string_view key, const Profile& profile) {
+    auto names = s.strings(key);
     if (!names) {
         return std::nullopt;
     }
@@ -73,12 +73,12 @@ std::optional<std::vector<std::uint16_t>> write_targets(Section& s, const Profil
 
 }  // namespace
 
-void read_blocks(Section& s, DriveConfig& drive) {
+void read_blocks(Section& s, DriveConfig& drive, std::string_view write_block) {
     if (!drive.profile) {
         return;  // its loading failed and was reported
     }
     check_indirect_polls(s, drive);
-    if (auto targets = write_targets(s, *drive.profile)) {
+    if (auto targets = write_targets(s, write_block, *drive.profile)) {
         drive.write_block = std::move(*targets);
     }
 }
