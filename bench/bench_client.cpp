@@ -34,8 +34,7 @@ std::int64_t now_ns() {
 }
 
 int fail(const drivebus::Error& e) {
-    std::fprintf(stderr, "bench_client: %s: %s\n", std::string(drivebus::to_string(e.kind)).c_str(),
-                 e.message.c_str());
+    std::fprintf(stderr, "bench_client: %s: %s\n", std::string(drivebus::to_string(e.kind)).c_str(), e.message.c_str());
     return 1;
 }
 

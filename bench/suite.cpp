@@ -34,11 +34,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fmt/format.h>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -52,8 +52,8 @@
 
 #include "bus/bus_loop.hpp"
 #include "fixtures.hpp"
-#include "sim_process.hpp"
 #include "floors.hpp"
+#include "sim_process.hpp"
 #include "stats.hpp"
 #include "suite_tools.hpp"
 
@@ -70,8 +70,7 @@ std::string run_client(const std::vector<std::string>& args, const fs::path& dir
     const fs::path out = dir / fmt::format("client-{}.out", now_ns());
     const int status = wait_exit(spawn(argv, out), timeout);
     if (status != 0) {
-        throw Failure(fmt::format("bench_client {} failed ({}): {}", args.at(1), status,
-                                  slurp(out.string() + ".err")));
+        throw Failure(fmt::format("bench_client {} failed ({}): {}", args.at(1), status, slurp(out.string() + ".err")));
     }
     return slurp(out);
 }
@@ -102,8 +101,8 @@ struct Line {
 // Paced, the simulator runs SCHED_FIFO: it is the instrument, and its own slips (a reply
 // character late by more than t1.5 breaks the reply) would otherwise be charged to the master.
 std::vector<std::string> sim_args(const Line& line, int drives, const std::string& turnaround, bool paced) {
-    std::vector<std::string> args{"--baud", std::to_string(line.baud), "--parity", line.parity_word(),
-                                  "--turnaround", turnaround};
+    std::vector<std::string> args{"--baud",  std::to_string(line.baud), "--parity", line.parity_word(), "--turnaround",
+                                  turnaround};
     if (paced) {
         args.insert(args.end(), {"--realtime", "90"});
     }
@@ -123,8 +122,8 @@ std::string drive_tables(int drives, const std::string& registers, const std::st
     for (int a = 1; a <= drives; ++a) {
         out += fmt::format("  [[bus.drive]]\n  name = \"d{}\"\n  address = {}\n  profile = \"atv58\"\n", a, a);
         if (!period.empty()) {
-            out += fmt::format("    [[bus.drive.poll]]\n    registers = [{}]\n    period = \"{}\"\n", registers,
-                               period);
+            out +=
+                fmt::format("    [[bus.drive.poll]]\n    registers = [{}]\n    period = \"{}\"\n", registers, period);
         }
     }
     return out;
@@ -137,7 +136,8 @@ public:
            const std::string& drives, const std::string& realtime = "mode = \"off\"\nlock_memory = false\n")
         : log_(dir / "drivebusd.log") {
         const fs::path config = dir / "drivebusd.toml";
-        std::ofstream(config) << "[realtime]\n" << realtime << "[ipc]\nroudi = \"embedded\"\n"
+        std::ofstream(config) << "[realtime]\n"
+                              << realtime << "[ipc]\nroudi = \"embedded\"\n"
                               << "[[bus]]\nname = \"" << bus << "\"\ndevice = \"" << device.string()
                               << "\"\nbaud = " << line.baud << "\nparity = \"" << line.parity_word()
                               << "\"\ndirection = \"none\"\nresponse_timeout = \"100ms\"\nretries = 2\n"
@@ -263,7 +263,8 @@ void latency(const Options& o, std::vector<Row>& rows) {
         std::string text;
         {
             test::SimProcess sim(args, simdir);
-            Daemon daemon(dir, "bench2", sim.link(), line, drive_tables(1, "\"W450\", \"W451\", \"W452\", \"W453\"", "1ms"));
+            Daemon daemon(dir, "bench2", sim.link(), line,
+                          drive_tables(1, "\"W450\", \"W451\", \"W452\", \"W453\"", "1ms"));
             text = run_client({"bench2", "snapshots", "d1", std::to_string(n + 20)}, dir, 600s);
             daemon.stop();
             sim.stop();
@@ -302,10 +303,10 @@ void latency(const Options& o, std::vector<Row>& rows) {
         r.target = "p99 ≤ 50 µs";
         r.met = r.summary->p99 <= 50.0;
         rows.push_back(r);
-        rows.push_back(samples_row("2", "of which the pty: simulator writes the last byte → drivebusd's read() returns it",
-                                   pty_part,
-                                   "the reply's time in the snapshot is the moment drivebusd's read returned its last "
-                                   "byte"));
+        rows.push_back(samples_row(
+            "2", "of which the pty: simulator writes the last byte → drivebusd's read() returns it", pty_part,
+            "the reply's time in the snapshot is the moment drivebusd's read returned its last "
+            "byte"));
         rows.push_back(samples_row("2", "of which drivebus: drivebusd's read() returns → subscriber holds the snapshot",
                                    drivebus_part,
                                    "framing, publication, iceoryx's notification, the client's Listener thread"));
@@ -387,9 +388,10 @@ void latency(const Options& o, std::vector<Row>& rows) {
         Row r{"3", "round trip: client's read of 4 registers through drivebusd"};
         r.samples = drivebus_rt.size();
         r.summary = d;
-        r.notes = fmt::format("{} unpaced (the simulator answers t3.5 + 100 µs after a request); {} alternating "
-                              "blocks; idle bus before each read",
-                              line.name(), blocks);
+        r.notes = fmt::format(
+            "{} unpaced (the simulator answers t3.5 + 100 µs after a request); {} alternating "
+            "blocks; idle bus before each read",
+            line.name(), blocks);
         const double ratio = d.p50 / m.p50;
         r.target = "p50 ≤ 1.25 × libmodbus";
         r.met = ratio <= 1.25;
@@ -434,8 +436,8 @@ void efficiency(const Options& o, std::vector<Row>& rows) {
     for (const std::uint32_t baud : {9600U, 19200U, 115200U}) {
         for (const auto parity : {rtu::Parity::None, rtu::Parity::Even}) {
             for (const int drives : {1, 8, 31}) {
-                if (!o.smoke || (baud == 19200 && drives != 8) || (baud == 115200 && drives == 1 &&
-                                                                   parity == rtu::Parity::None)) {
+                if (!o.smoke || (baud == 19200 && drives != 8) ||
+                    (baud == 115200 && drives == 1 && parity == rtu::Parity::None)) {
                     runs.emplace_back(Line{baud, parity}, drives);
                 }
             }
@@ -497,12 +499,13 @@ void efficiency(const Options& o, std::vector<Row>& rows) {
         r.samples = transactions;
         const auto count = std::stoull(field(silences, "count"));
         const auto shorts = std::stoull(field(silences, "short"));
-        r.notes = fmt::format("drivebus {:.1f}/s of {:.1f}/s max = **{:.3f}**{}; libmodbus {:.1f}/s = {:.3f}, "
-                              "silence below t3.5 before {} of {} requests ({:.0f}%){}",
-                              rate, max_rate, ratio, failures > 0 ? fmt::format(" ({} failed)", failures) : "",
-                              mb_rate, mb_rate / max_rate, shorts, count,
-                              count > 0 ? 100.0 * static_cast<double>(shorts) / static_cast<double>(count) : 0.0,
-                              mb_failures > 0 ? fmt::format(" ({} failed)", mb_failures) : "");
+        r.notes = fmt::format(
+            "drivebus {:.1f}/s of {:.1f}/s max = **{:.3f}**{}; libmodbus {:.1f}/s = {:.3f}, "
+            "silence below t3.5 before {} of {} requests ({:.0f}%){}",
+            rate, max_rate, ratio, failures > 0 ? fmt::format(" ({} failed)", failures) : "", mb_rate,
+            mb_rate / max_rate, shorts, count,
+            count > 0 ? 100.0 * static_cast<double>(shorts) / static_cast<double>(count) : 0.0,
+            mb_failures > 0 ? fmt::format(" ({} failed)", mb_failures) : "");
         r.target = line.baud == 115200 ? "≥ 0.85" : "≥ 0.95";
         r.met = ratio >= (line.baud == 115200 ? 0.85 : 0.95);
         rows.push_back(r);
@@ -537,8 +540,7 @@ void gap(const Options& o, std::vector<Row>& rows) {
                 if (auto started = loop.start(); !started) {
                     throw Failure("the bus loop did not start: " + started.error());
                 }
-                const double seconds =
-                    static_cast<double>(n + 50) * line.transaction_us(8, 7, 100.0) * 1.1e-6 + 0.5;
+                const double seconds = static_cast<double>(n + 50) * line.transaction_us(8, 7, 100.0) * 1.1e-6 + 0.5;
                 std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
                 retried = loop.status().counters.retries;
                 loop.stop();
@@ -573,10 +575,11 @@ void gap(const Options& o, std::vector<Row>& rows) {
             Row r{"5", "the same on the simulator's side of the pty"};
             r.samples = samples.size();
             r.summary = bench::summarize(samples);
-            r.notes = fmt::format("simulator's last reply byte written → next request's first byte read, minus t3.5 "
-                                  "({:.0f} µs): two pty hops and the master's reaction; {} below t3.5; {} retries "
-                                  "after broken replies",
-                                  line.t35_us(), below, retried);
+            r.notes = fmt::format(
+                "simulator's last reply byte written → next request's first byte read, minus t3.5 "
+                "({:.0f} µs): two pty hops and the master's reaction; {} below t3.5; {} retries "
+                "after broken replies",
+                line.t35_us(), below, retried);
             rows.push_back(r);
         }
     }
@@ -587,9 +590,9 @@ void gap(const Options& o, std::vector<Row>& rows) {
 struct JitterRun {
     std::vector<double> master_side;
     std::vector<double> sim_side;
-    std::vector<double> late;  // write() called → when the request was due: the thread's own part
-    std::size_t retries = 0;   // after replies the master saw broken
-    std::vector<double> behind;  // each poll cycle's write() after the time its period made it due
+    std::vector<double> late;     // write() called → when the request was due: the thread's own part
+    std::size_t retries = 0;      // after replies the master saw broken
+    std::vector<double> behind;   // each poll cycle's write() after the time its period made it due
     std::vector<double> on_time;  // the same, for the cycles whose line was free at that time
     std::size_t pushed = 0;       // cycles whose line was still busy at their time
 };
@@ -679,8 +682,7 @@ void jitter(const Options& o, std::vector<Row>& rows) {
         note("polling period jitter under stress-ng, " + setting.name);
         const auto run = jitter_run(n, setting.fifo, setting.spin);
         results.push_back({bench::summarize(run.on_time), bench::summarize(run.behind),
-                           bench::summarize(run.master_side), bench::summarize(run.sim_side), run.retries,
-                           run.pushed});
+                           bench::summarize(run.master_side), bench::summarize(run.sim_side), run.retries, run.pushed});
     }
     const auto& without = results.back();
     for (std::size_t i = 0; i < settings.size(); ++i) {
@@ -731,9 +733,9 @@ master::BusCounters minus(const master::BusCounters& a, const master::BusCounter
 WireRun wire_run(const Line& line, double seconds, bool loaded) {
     std::optional<test::Child> stress;
     if (loaded) {
-        stress.emplace(std::vector<std::string>{"/usr/bin/stress-ng", "--cpu", std::to_string(std::thread::hardware_concurrency()),
-                                                "--io", "1", "--vm", "1", "--timeout",
-                                                std::to_string(static_cast<int>(seconds) + 30) + "s", "--quiet"});
+        stress.emplace(std::vector<std::string>{
+            "/usr/bin/stress-ng", "--cpu", std::to_string(std::thread::hardware_concurrency()), "--io", "1", "--vm",
+            "1", "--timeout", std::to_string(static_cast<int>(seconds) + 30) + "s", "--quiet"});
         std::this_thread::sleep_for(500ms);
     }
     WireRun run;
@@ -769,14 +771,14 @@ void wire_rules(const Options& o, std::vector<Row>& rows) {
         const Line line{baud, rtu::Parity::None};
         double quiet_rate = 0;
         for (const bool loaded : {false, true}) {
-            const std::string load = loaded
-                                         ? fmt::format("stress-ng --cpu {} --io 1 --vm 1", std::thread::hardware_concurrency())
-                                         : "quiet";
+            const std::string load =
+                loaded ? fmt::format("stress-ng --cpu {} --io 1 --vm 1", std::thread::hardware_concurrency()) : "quiet";
             note(fmt::format("wire rules at {}, {}", line.name(), load));
             const WireRun run = wire_run(line, seconds, loaded);
             const auto& c = run.counters;
             const std::uint64_t errors = c.crc_errors + c.gap_errors;
-            const double error_share = run.replies > 0 ? static_cast<double>(errors) / static_cast<double>(run.replies) : 1.0;
+            const double error_share =
+                run.replies > 0 ? static_cast<double>(errors) / static_cast<double>(run.replies) : 1.0;
             Row r{"8", fmt::format("wire rules, {}, 4 drives back to back, {}", line.name(), load)};
             r.samples = run.replies;
             r.notes = fmt::format(
@@ -856,8 +858,8 @@ ProcSample proc_sample(int pid) {
 // CPU seconds of each of a process's threads, by name; iceoryx's RouDi threads (embedded in
 // drivebusd by default) as one.
 std::map<std::string, double> thread_cpu(int pid) {
-    static const std::set<std::string> roudi{"PortIntr", "ProcessIntr", "MemPoolIntr", "Mon+Discover",
-                                             "IPC-msg-process", "KeepAlive"};
+    static const std::set<std::string> roudi{"PortIntr",     "ProcessIntr",     "MemPoolIntr",
+                                             "Mon+Discover", "IPC-msg-process", "KeepAlive"};
     std::map<std::string, double> out;
     const fs::path tasks = fs::path("/proc") / std::to_string(pid) / "task";
     std::error_code ec;
@@ -881,8 +883,8 @@ void cost_run(const Options& o, std::vector<Row>& rows, int clients) {
     test::SimProcess sim(sim_args(line, drives, "1ms", true));
     // The shipped real-time defaults (best-effort SCHED_FIFO, memory locked), so that VmLck is
     // what a deployment locks.
-    Daemon daemon(dir, "bench7", sim.link(), line, drive_tables(drives, "\"W450\", \"W451\", \"W452\", \"W453\"", "1ms"),
-                  kCostRealtime);
+    Daemon daemon(dir, "bench7", sim.link(), line,
+                  drive_tables(drives, "\"W450\", \"W451\", \"W452\", \"W453\"", "1ms"), kCostRealtime);
     const int pid = daemon.pid();
     if (pid <= 0) {
         throw Failure("no pid in drivebusd's output: " + daemon.output());
@@ -930,16 +932,17 @@ void cost_run(const Options& o, std::vector<Row>& rows, int clients) {
         const double d = 100.0 * (cpu - (before == threads0.end() ? 0.0 : before->second)) / wall;
         split += fmt::format("{}{} {:.2f}%", split.empty() ? "" : ", ", name == "drivebusd" ? "main" : name, d);
     }
-    Row r{"7", fmt::format("drivebusd cost: 31 drives at 19200 8N1 as fast as allowed, {} subscribed clients", clients)};
+    Row r{"7",
+          fmt::format("drivebusd cost: 31 drives at 19200 8N1 as fast as allowed, {} subscribed clients", clients)};
     r.samples = static_cast<std::size_t>(r1 - r0);
-    r.notes = fmt::format("CPU **{:.2f}%** of one core over {:.0f} s (utime+stime; by thread: {}); peak RssAnon "
-                          "**{:.1f} MiB** (heap and stacks, sampled every 100 ms; VmHWM with shared memory: {:.1f} "
-                          "MiB); VmLck **{:.1f} MiB** (locked at the end, real-time defaults); {:.1f} transactions/s "
-                          "= {:.3f} of the maximum{}",
-                          share, wall, split, static_cast<double>(peak_anon) / 1024.0,
-                          static_cast<double>(s1.hwm_kb) / 1024.0, static_cast<double>(s1.locked_kb) / 1024.0, rate,
-                          rate / max_rate,
-                          clients > 0 ? fmt::format("; clients got {} snapshots", received) : "");
+    r.notes = fmt::format(
+        "CPU **{:.2f}%** of one core over {:.0f} s (utime+stime; by thread: {}); peak RssAnon "
+        "**{:.1f} MiB** (heap and stacks, sampled every 100 ms; VmHWM with shared memory: {:.1f} "
+        "MiB); VmLck **{:.1f} MiB** (locked at the end, real-time defaults); {:.1f} transactions/s "
+        "= {:.3f} of the maximum{}",
+        share, wall, split, static_cast<double>(peak_anon) / 1024.0, static_cast<double>(s1.hwm_kb) / 1024.0,
+        static_cast<double>(s1.locked_kb) / 1024.0, rate, rate / max_rate,
+        clients > 0 ? fmt::format("; clients got {} snapshots", received) : "");
     if (clients > 0) {
         r.target = "CPU < 2%, heap RSS < 16 MiB";
         r.met = share < 2.0 && peak_anon < 16 * 1024;
@@ -978,7 +981,8 @@ int main(int argc, char** argv) {
     ::signal(SIGPIPE, SIG_IGN);
     std::vector<Row> rows;
     const std::vector<std::pair<std::vector<int>, std::function<void(const Options&, std::vector<Row>&)>>> items{
-        {{0}, floors}, {{1, 2, 3}, latency}, {{4}, efficiency}, {{5}, gap}, {{6}, jitter}, {{7}, cost}, {{8}, wire_rules}};
+        {{0}, floors}, {{1, 2, 3}, latency}, {{4}, efficiency}, {{5}, gap},
+        {{6}, jitter}, {{7}, cost},          {{8}, wire_rules}};
     int failures = 0;
     for (const auto& [numbers_of, run] : items) {
         if (std::ranges::none_of(numbers_of, [&](int i) { return o.runs(i); })) {

@@ -2,8 +2,8 @@
 // time pass (ramps, time-outs). Pure: time is an argument, nothing here does I/O.
 #pragma once
 
-#include <deque>
 #include <cstdint>
+#include <deque>
 #include <expected>
 #include <memory>
 #include <optional>

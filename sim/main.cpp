@@ -248,7 +248,8 @@ int run_main(int argc, char** argv) {
     app.add_option("--seed", o.seed, "seed for the shares of faulty replies")->capture_default_str();
     app.add_option("--profile-dir", o.profile_dir, "directory with the drive profiles (TYPE.toml)");
     app.add_option("--tx-log", o.tx_log, "write 'NS ADDRESS FUNCTION' to PATH after each reply's last byte");
-    app.add_option("--rx-log", o.rx_log, "write 'NS ADDRESS FUNCTION' to PATH for each request: when its first byte was read");
+    app.add_option("--rx-log", o.rx_log,
+                   "write 'NS ADDRESS FUNCTION' to PATH for each request: when its first byte was read");
     app.add_option("--realtime", o.realtime, "run at this SCHED_FIFO priority (1-99) for tighter pacing")
         ->check(CLI::Range(1, 99));
     try {

@@ -29,22 +29,24 @@ Bus connect(const Options& options) {
 Error response_error(const shm::Response& r) {
     switch (r.status) {
     case shm::Status::Rejected: {
-        auto e = error_of(ErrorKind::Rejected, fmt::format("drivebusd rejected the probe: {}", shm::to_string(r.reason)));
+        auto e =
+            error_of(ErrorKind::Rejected, fmt::format("drivebusd rejected the probe: {}", shm::to_string(r.reason)));
         e.reason = r.reason;
         return e;
     }
     case shm::Status::QueueFull:
         return error_of(ErrorKind::QueueFull, "the bus's request queue is full; try again shortly");
     case shm::Status::BusDown:
-        return error_of(ErrorKind::BusDown, "the bus is down: its serial device is not open (see journalctl -u drivebusd)");
+        return error_of(ErrorKind::BusDown,
+                        "the bus is down: its serial device is not open (see journalctl -u drivebusd)");
     case shm::Status::NotPermitted:
         return error_of(ErrorKind::NotPermitted, "drivebusd does not let this client send requests");
     default: return error_of(ErrorKind::BadFrame, fmt::format("unexpected answer: {}", shm::to_string(r.status)));
     }
 }
 
-void fail_request(const Options& options, Error error, const Drive& drive, std::string_view what,
-                  std::uint16_t start, std::size_t count, const std::string& context) {
+void fail_request(const Options& options, Error error, const Drive& drive, std::string_view what, std::uint16_t start,
+                  std::size_t count, const std::string& context) {
     const auto hint = rejection_hint(error, drive.profile(), what, start, count);
     if (!hint.empty()) {
         error.message += "; " + hint;
@@ -109,7 +111,8 @@ bool touches_lease(const Drive& drive, std::uint16_t start, std::size_t count) {
     }
     return std::ranges::any_of(profile->control->lease_registers, [&](const std::string& name) {
         const auto* r = profile->find(name);
-        return r != nullptr && r->address && *r->address >= start && *r->address < static_cast<std::size_t>(start) + count;
+        return r != nullptr && r->address && *r->address >= start &&
+               *r->address < static_cast<std::size_t>(start) + count;
     });
 }
 
@@ -169,8 +172,8 @@ int run_list(const Options& options) {
                            .set("drive_count", status.drive_count)
                            .set("drives", drives_json(status)));
             text += fmt::format("bus {}: {}, {} {} {}, {} of {} drives online\n", name, status.up != 0 ? "up" : "down",
-                                shm::view(status.device), status.baud, shm::view(status.format),
-                                status.drives_online, status.drive_count);
+                                shm::view(status.device), status.baud, shm::view(status.format), status.drives_online,
+                                status.drive_count);
             text += render_table(drive_rows(status), "  ");
         }
         if (names.empty()) {
@@ -226,7 +229,8 @@ int run_read(const Options& options, const std::string& drive_name, const std::s
                     const auto status = need(bus.status(), options);
                     std::fflush(stdout);
                     std::fprintf(stderr, "drivebusctl: from the snapshot of %s ago: requests need group %s\n",
-                                 format_age(snapshot_age).c_str(), std::string(shm::view(status.control_group)).c_str());
+                                 format_age(snapshot_age).c_str(),
+                                 std::string(shm::view(status.control_group)).c_str());
                 }
             }
         }
@@ -267,8 +271,8 @@ int run_write(const Options& options, const std::string& drive_name, const std::
             throw Failed{report(options, error_of(ErrorKind::InvalidArgument, "a write takes 1-123 values"), context)};
         }
         if (static_cast<std::size_t>(start) + texts.size() - 1 > 0xFFFF) {
-            throw Failed{report(options, error_of(ErrorKind::InvalidArgument, "the values run past register 0xFFFF"),
-                                context)};
+            throw Failed{
+                report(options, error_of(ErrorKind::InvalidArgument, "the values run past register 0xFFFF"), context)};
         }
         std::vector<std::uint16_t> words;
         for (std::size_t i = 0; i < texts.size(); ++i) {
@@ -287,8 +291,9 @@ int run_write(const Options& options, const std::string& drive_name, const std::
         // apply the fallback once this process stops renewing it.
         bool released = false;
         if (touches_lease(drive, start, words.size()) &&
-            (written || (written.error().kind != ErrorKind::NotPermitted && written.error().kind != ErrorKind::Rejected &&
-                         written.error().kind != ErrorKind::InvalidArgument))) {
+            (written ||
+             (written.error().kind != ErrorKind::NotPermitted && written.error().kind != ErrorKind::Rejected &&
+              written.error().kind != ErrorKind::InvalidArgument))) {
             released = drive.release_control().has_value();
             if (released) {
                 std::fflush(stdout);

@@ -14,7 +14,8 @@ namespace {
 
 std::string lower(std::string_view text) {
     std::string out(text);
-    std::ranges::transform(out, out.begin(), [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); });
+    std::ranges::transform(out, out.begin(),
+                           [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); });
     return out;
 }
 
@@ -144,12 +145,10 @@ std::string rejection_hint(const Error& error, const Profile* profile, std::stri
     switch (error.reason) {
     case shm::RejectReason::UnknownRegister:
         return fmt::format("profile {} does not list it (its registers: {}.toml)", profile->type, profile->type);
-    case shm::RejectReason::ReadOnly:
-        return r != nullptr ? fmt::format("{} can only be read", r->name) : std::string();
+    case shm::RejectReason::ReadOnly: return r != nullptr ? fmt::format("{} can only be read", r->name) : std::string();
     case shm::RejectReason::WriteOnly:
         return r != nullptr ? fmt::format("{} can only be written", r->name) : std::string();
-    case shm::RejectReason::Quantity:
-    {
+    case shm::RejectReason::Quantity: {
         const auto most = what == "write" ? profile->functions.write_multiple_max : profile->functions.read_holding_max;
         return fmt::format("profile {} {} at most {} register{} per request", profile->type,
                            what == "write" ? "writes" : "reads", most, most == 1 ? "" : "s");
@@ -288,9 +287,10 @@ std::expected<std::uint16_t, std::string> parse_value(std::string_view text, con
         return std::unexpected(fmt::format("'{}' is not a raw value (decimal or 0x hex)", text));
     }
     if (info == nullptr) {
-        return std::unexpected(fmt::format("'{}' has a unit, but the register is not in the drive's profile: give a "
-                                           "raw value",
-                                           text));
+        return std::unexpected(
+            fmt::format("'{}' has a unit, but the register is not in the drive's profile: give a "
+                        "raw value",
+                        text));
     }
     if (info->unit.empty()) {
         return std::unexpected(

@@ -72,8 +72,7 @@ int main(int argc, char** argv) {
     auto* write = app.add_subcommand("write", "write registers (one value: FC06, several: FC16)");
     write->add_option("DRIVE", drive, "drive name or address")->required();
     write->add_option("REG", reg, "register: profile name (FA01) or number")->required();
-    write->add_option("VALUE", values, "raw (300, 0x12C) or with the register's unit (30Hz, '30.5 Hz')")
-        ->required();
+    write->add_option("VALUE", values, "raw (300, 0x12C) or with the register's unit (30Hz, '30.5 Hz')")->required();
     write->add_flag("--take-over", take_over, "take the control lease from the client that holds it");
 
     auto* identify = app.add_subcommand("identify", "vendor, product code and revision (FC43/14)");

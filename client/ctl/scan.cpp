@@ -43,9 +43,9 @@ int run_identify(const Options& options, const std::string& drive_name) {
 int run_scan(const Options& options, int from, int to, const std::string& reg) {
     return guarded([&] {
         if (from < 1 || to > 247 || from > to) {
-            throw Failed{report(options, error_of(ErrorKind::InvalidArgument,
-                                                  fmt::format("scan --from {} --to {}: addresses run 1-247, from <= to",
-                                                              from, to)))};
+            throw Failed{report(
+                options, error_of(ErrorKind::InvalidArgument,
+                                  fmt::format("scan --from {} --to {}: addresses run 1-247, from <= to", from, to)))};
         }
         const auto start = parse_value(reg, nullptr);
         if (!start) {

@@ -3,9 +3,9 @@
 // command ended.
 #pragma once
 
+#include <cstdint>
 #include <expected>
 #include <functional>
-#include <cstdint>
 #include <string>
 #include <string_view>
 

@@ -30,7 +30,7 @@ Terminal::Terminal() {
     if (signal_pipe[0] < 0 && ::pipe2(signal_pipe, O_CLOEXEC | O_NONBLOCK) != 0) {
         signal_pipe[0] = signal_pipe[1] = -1;
     }
-    struct sigaction action {};
+    struct sigaction action{};
     action.sa_handler = on_signal;
     ::sigemptyset(&action.sa_mask);
     for (const int s : {SIGINT, SIGTERM, SIGHUP}) {
@@ -60,7 +60,7 @@ Terminal::~Terminal() {
     if (saved_input_) {
         ::tcsetattr(STDIN_FILENO, TCSANOW, &*saved_input_);
     }
-    struct sigaction action {};
+    struct sigaction action{};
     action.sa_handler = SIG_DFL;
     ::sigemptyset(&action.sa_mask);
     for (const int s : {SIGINT, SIGTERM, SIGHUP}) {

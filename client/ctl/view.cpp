@@ -64,9 +64,14 @@ std::vector<std::pair<std::string, std::uint64_t>> bus_counters(const shm::BusCo
 }
 
 std::vector<std::pair<std::string, std::uint64_t>> drive_counters(const shm::DriveCounters& c) {
-    return {{"requests", c.requests},   {"replies", c.replies},       {"timeouts", c.timeouts},
-            {"bad_frames", c.bad_frames}, {"retries", c.retries},     {"exceptions", c.exceptions},
-            {"absent_transitions", c.absent_transitions}, {"late", c.late}};
+    return {{"requests", c.requests},
+            {"replies", c.replies},
+            {"timeouts", c.timeouts},
+            {"bad_frames", c.bad_frames},
+            {"retries", c.retries},
+            {"exceptions", c.exceptions},
+            {"absent_transitions", c.absent_transitions},
+            {"late", c.late}};
 }
 
 std::string counters_text(const std::vector<std::pair<std::string, std::uint64_t>>& counters) {
@@ -185,8 +190,8 @@ Json lease_json(const shm::LeaseStatus& lease, std::int64_t now_ns) {
     out.set("holder", lease.state == shm::LeaseState::Free ? Json() : Json(shm::view(lease.holder)));
     out.set("holder_pid", lease.state == shm::LeaseState::Free ? Json() : Json(lease.holder_pid));
     out.set("duration_ms", lease.duration_ms);
-    out.set("expires_in_ms", lease.state == shm::LeaseState::Held ? Json((lease.expires_ns - now_ns) / 1'000'000)
-                                                                   : Json());
+    out.set("expires_in_ms",
+            lease.state == shm::LeaseState::Held ? Json((lease.expires_ns - now_ns) / 1'000'000) : Json());
     out.set("fallback", shm::to_string(lease.fallback)).set("fallback_ok", lease.fallback_ok != 0);
     out.set("expiries", lease.expiries);
     return out;
@@ -194,8 +199,8 @@ Json lease_json(const shm::LeaseStatus& lease, std::int64_t now_ns) {
 
 std::string drive_status_text(const shm::DriveSnapshot& s, const Profile* profile, std::int64_t now_ns) {
     std::vector<std::pair<std::string, std::string>> fields = {
-        {"drive", fmt::format("{} (address {}, profile {}, bus {})", shm::view(s.name), s.address,
-                              shm::view(s.profile), shm::view(s.bus))},
+        {"drive", fmt::format("{} (address {}, profile {}, bus {})", shm::view(s.name), s.address, shm::view(s.profile),
+                              shm::view(s.bus))},
         {"health", std::string(shm::to_string(s.health))},
         {"snapshot", fmt::format("#{}, {} ago", s.sequence, format_age(now_ns - s.published_ns))},
     };

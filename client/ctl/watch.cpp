@@ -64,8 +64,12 @@ int run_watch(const Options& options, std::chrono::milliseconds interval) {
         for (;;) {
             const auto status = bus->status();
             if (!status || !bus->daemon_alive()) {
-                failure = Error{ErrorKind::DaemonGone, "drivebusd has gone silent (no bus status); watch ended", 0,
-                                shm::RejectReason::None, {}, 0};
+                failure = Error{ErrorKind::DaemonGone,
+                                "drivebusd has gone silent (no bus status); watch ended",
+                                0,
+                                shm::RejectReason::None,
+                                {},
+                                0};
                 break;
             }
             std::vector<WatchDrive> view;

@@ -84,21 +84,21 @@ DriveState decode_state(const Profile& profile, const shm::DriveSnapshot& s) {
 std::expected<void, Error> Altivar::set_frequency(double hz, WriteOptions options) const {
     const auto* profile = drive_.profile();
     if (profile == nullptr || !profile->control || profile->control->reference.empty()) {
-        return std::unexpected(make_error(ErrorKind::Unsupported, "drive '" + drive_.name() +
-                                                                      "': its profile names no reference register"));
+        return std::unexpected(make_error(ErrorKind::Unsupported,
+                                          "drive '" + drive_.name() + "': its profile names no reference register"));
     }
     const auto* r = profile->find(profile->control->reference);
     const auto raw = r->from_engineering(hz);
     if (!raw || !r->in_range(*raw)) {
-        return std::unexpected(make_error(ErrorKind::InvalidArgument,
-                                          "drive '" + drive_.name() + "': " + std::to_string(hz) + " " + r->unit +
-                                              " is outside what " + r->name + " takes"));
+        return std::unexpected(make_error(ErrorKind::InvalidArgument, "drive '" + drive_.name() +
+                                                                          "': " + std::to_string(hz) + " " + r->unit +
+                                                                          " is outside what " + r->name + " takes"));
     }
     const std::uint16_t word = *raw;
     return drive_.write(*r->address, std::span(&word, 1), options);
 }
 
-std::expected<void, Error> Altivar::command(const std::optional<std::uint16_t> ControlInfo::*word, const char* what,
+std::expected<void, Error> Altivar::command(const std::optional<std::uint16_t> ControlInfo::* word, const char* what,
                                             WriteOptions options) const {
     const auto* profile = drive_.profile();
     if (profile == nullptr || !profile->control || !(profile->control.value().*word) ||

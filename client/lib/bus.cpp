@@ -120,8 +120,8 @@ std::expected<void, Error> Bus::Impl::open() {
         feed->name = std::string(shm::view(first.drives[i].name));
         feed->address = first.drives[i].address;
         const auto type = std::string(shm::view(first.drives[i].profile));
-        auto profile = options.profile_dir ? load_profile(*options.profile_dir / (type + ".toml"))
-                                           : load_profile_by_type(type);
+        auto profile =
+            options.profile_dir ? load_profile(*options.profile_dir / (type + ".toml")) : load_profile_by_type(type);
         if (profile) {
             feed->profile = std::make_shared<const Profile>(std::move(*profile));
         }
@@ -270,10 +270,9 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
             std::lock_guard lock(mutex);  // the listener's thread writes the status
             group = std::string(shm::view(status->control_group));
         }
-        return std::unexpected(make_error(ErrorKind::NotPermitted, "requests on bus '" + name +
-                                                                       "' need membership of group " + group +
-                                                                       " (usermod -aG " + group +
-                                                                       " $USER); watching needs none"));
+        return std::unexpected(
+            make_error(ErrorKind::NotPermitted, "requests on bus '" + name + "' need membership of group " + group +
+                                                    " (usermod -aG " + group + " $USER); watching needs none"));
     }
     request.version = shm::kPayloadVersion;
     request.size = sizeof(shm::Request);
@@ -299,11 +298,11 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     std::unique_lock lock(mutex);
     if (!sent) {
         waiting.erase(request.correlation);
-        return std::unexpected(make_error(ErrorKind::DaemonGone, "drivebusd is not taking requests on bus '" + name +
-                                                                     "' (has it stopped?)"));
+        return std::unexpected(make_error(ErrorKind::DaemonGone,
+                                          "drivebusd is not taking requests on bus '" + name + "' (has it stopped?)"));
     }
-    bool answered = changed.wait_for(lock, options.request_timeout,
-                                     [&] { return waiting.at(request.correlation).has_value(); });
+    bool answered =
+        changed.wait_for(lock, options.request_timeout, [&] { return waiting.at(request.correlation).has_value(); });
     if (!answered) {
         // Given up: withdrawn if it has not reached the wire, and told which happened. The
         // answer is the request's own result if it finished meanwhile.
@@ -313,8 +312,9 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
         const bool asked = send(withdraw);
         lock.lock();
         if (asked) {
-            answered = changed.wait_for(lock, std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)),
-                                        [&] { return waiting.at(request.correlation).has_value(); });
+            answered =
+                changed.wait_for(lock, std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)),
+                                 [&] { return waiting.at(request.correlation).has_value(); });
         }
     }
     auto response = waiting.at(request.correlation);
@@ -330,13 +330,13 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     }
     if (!answered || !response) {
         const bool gone = !(status.has_value() && Clock::now() - status_time < options.daemon_silence);
-        return std::unexpected(gone ? make_error(ErrorKind::DaemonGone,
-                                                 "drivebusd has gone silent (no bus status for " +
-                                                     std::to_string(options.daemon_silence.count()) + " ms)")
-                                    : make_error(ErrorKind::NoReply, "drivebusd did not answer within " +
-                                                                         std::to_string(options.request_timeout.count()) +
-                                                                         " ms, nor its withdrawal: the outcome is "
-                                                                         "unknown (read the register back)"));
+        return std::unexpected(
+            gone ? make_error(ErrorKind::DaemonGone, "drivebusd has gone silent (no bus status for " +
+                                                         std::to_string(options.daemon_silence.count()) + " ms)")
+                 : make_error(ErrorKind::NoReply, "drivebusd did not answer within " +
+                                                      std::to_string(options.request_timeout.count()) +
+                                                      " ms, nor its withdrawal: the outcome is "
+                                                      "unknown (read the register back)"));
     }
     return *response;
 }

@@ -47,8 +47,8 @@ std::expected<std::uint16_t, Error> Drive::resolve(std::string_view reg) const {
     if (profile_) {
         if (const auto* r = profile_->find(reg); r != nullptr) {
             if (!r->address) {
-                return std::unexpected(make_error(ErrorKind::InvalidArgument,
-                                                  r->name + " has no Modbus address (keypad only)"));
+                return std::unexpected(
+                    make_error(ErrorKind::InvalidArgument, r->name + " has no Modbus address (keypad only)"));
             }
             return *r->address;
         }
@@ -56,10 +56,10 @@ std::expected<std::uint16_t, Error> Drive::resolve(std::string_view reg) const {
     if (const auto n = parse_number(reg)) {
         return *n;
     }
-    return std::unexpected(make_error(ErrorKind::InvalidArgument,
-                                      "'" + std::string(reg) + "' is neither a register of profile " +
-                                          (profile_ ? profile_->type : std::string("(none)")) +
-                                          " nor a number (decimal or 0x hex)"));
+    return std::unexpected(
+        make_error(ErrorKind::InvalidArgument, "'" + std::string(reg) + "' is neither a register of profile " +
+                                                   (profile_ ? profile_->type : std::string("(none)")) +
+                                                   " nor a number (decimal or 0x hex)"));
 }
 
 std::expected<shm::DriveSnapshot, Error> Drive::wait_snapshot(Milliseconds wait, std::uint64_t after) const {
@@ -71,11 +71,11 @@ std::expected<shm::DriveSnapshot, Error> Drive::wait_snapshot(Milliseconds wait,
     }
     const bool alive = bus_->status.has_value() && Clock::now() - bus_->status_time < bus_->options.daemon_silence;
     if (!alive) {
-        return std::unexpected(make_error(ErrorKind::DaemonGone, "drivebusd has gone silent: no snapshot of drive '" +
-                                                                     name_ + "'"));
+        return std::unexpected(
+            make_error(ErrorKind::DaemonGone, "drivebusd has gone silent: no snapshot of drive '" + name_ + "'"));
     }
-    return std::unexpected(make_error(ErrorKind::NoReply, "no new snapshot of drive '" + name_ + "' within " +
-                                                              std::to_string(wait.count()) + " ms"));
+    return std::unexpected(make_error(
+        ErrorKind::NoReply, "no new snapshot of drive '" + name_ + "' within " + std::to_string(wait.count()) + " ms"));
 }
 
 Subscription Drive::on_snapshot(std::function<void(const shm::DriveSnapshot&)> callback) const {

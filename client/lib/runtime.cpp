@@ -23,7 +23,7 @@ constexpr char kRouDiSocket[] = "/tmp/roudi";
 constexpr char kManagementShm[] = "/dev/shm/iceoryx_mgmt";
 
 std::string group_of(const char* path) {
-    struct stat st {};
+    struct stat st{};
     if (::stat(path, &st) == 0) {
         if (const auto* g = ::getgrgid(st.st_gid)) {
             return g->gr_name;
@@ -75,7 +75,7 @@ std::expected<void, Error> ensure_runtime(const std::string& application) {
         const int error = answers.error().error;
         if (error == EACCES) {
             const auto group = group_of(kRouDiSocket);
-            struct stat st {};
+            struct stat st{};
             ::stat(kRouDiSocket, &st);
             char mode[8];
             std::snprintf(mode, sizeof mode, "%04o", st.st_mode & 07777U);
@@ -97,7 +97,7 @@ std::expected<void, Error> ensure_runtime(const std::string& application) {
     }
     // RouDi answers each process through a socket the process creates with its effective
     // group and mode 0660: unless RouDi runs as root or as this user, that group must be RouDi's.
-    struct stat roudi {};
+    struct stat roudi{};
     if (::stat(kRouDiSocket, &roudi) == 0 && roudi.st_uid != 0 && roudi.st_uid != ::geteuid() &&
         roudi.st_gid != ::getegid()) {
         const auto group = group_of(kRouDiSocket);

@@ -13,10 +13,7 @@
 
 namespace drivebus::bus {
 
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 BusLoop::BusLoop(const config::BusConfig& bus, master::EngineCallbacks callbacks, LoopOptions options)
     : bus_(bus),

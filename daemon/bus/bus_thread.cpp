@@ -378,10 +378,9 @@ private:
 
 }  // namespace
 
-std::expected<std::unique_ptr<BusLoop::Impl>, std::string> BusLoop::Impl::create(const config::BusConfig& bus,
-                                                                                const master::EngineCallbacks& callbacks,
-                                                                                const LoopOptions& options,
-                                                                                BusLoop& outer) {
+std::expected<std::unique_ptr<BusLoop::Impl>, std::string> BusLoop::Impl::create(
+    const config::BusConfig& bus, const master::EngineCallbacks& callbacks, const LoopOptions& options,
+    BusLoop& outer) {
     const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_};
     auto thread = std::make_unique<BusThread>(bus, callbacks, options, shared);
     if (const auto& broken = thread->broken()) {

@@ -100,7 +100,7 @@ constexpr Table<RealtimeConfig, 5> kRealtimeKeys = {
 };
 
 // POSIX portable user and group names, as useradd takes them.
-template <std::string IpcConfig::*Group>
+template <std::string IpcConfig::* Group>
 void read_group(Section& s, const toml::table& /*table*/, const Key<IpcConfig>& key, IpcConfig& ipc) {
     auto name = s.string(key.name);
     if (!name) {

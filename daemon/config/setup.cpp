@@ -89,8 +89,7 @@ std::vector<std::string> start_up_warnings(const Config& config) {
     std::vector<std::string> lines;
     for (const auto& bus : config.buses) {
         for (const auto& drive : bus.drives) {
-            const ControlInfo* control =
-                drive.profile && drive.profile->control ? &*drive.profile->control : nullptr;
+            const ControlInfo* control = drive.profile && drive.profile->control ? &*drive.profile->control : nullptr;
             if (control == nullptr || control->lease_registers.empty() || control->stop || control->freewheel) {
                 continue;
             }

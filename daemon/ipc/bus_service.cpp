@@ -3,10 +3,10 @@
 #include <pthread.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <fmt/format.h>
 #include <stdexcept>
 #include <thread>
 
@@ -75,7 +75,8 @@ struct BusService::Impl {
                                   events.add(stop_fd.fd(), [&] { events.stop(); })};
         for (const auto& a : added) {
             if (!a) {
-                log::error(fmt::format("bus {}: ipc event loop: {}: clients are not served", bus.name, a.error().message()));
+                log::error(
+                    fmt::format("bus {}: ipc event loop: {}: clients are not served", bus.name, a.error().message()));
                 return;
             }
         }
@@ -114,9 +115,10 @@ struct BusService::Impl {
             dropped_seen = dropped;
         }
         if (const auto lost = handover.results_lost.load(); lost != lost_seen) {
-            log::error(fmt::format("bus {}: {} results had no room in the ring (a defect: it is sized to the "
-                                   "queue limit)",
-                                   bus.name, lost - lost_seen));
+            log::error(
+                fmt::format("bus {}: {} results had no room in the ring (a defect: it is sized to the "
+                            "queue limit)",
+                            bus.name, lost - lost_seen));
             lost_seen = lost;
         }
     }

@@ -4,13 +4,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
 #include <algorithm>
-#include <cstdio>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <optional>
 #include <thread>
-#include <fmt/format.h>
 
 #include "drivebus/shm.hpp"
 #include "iceoryx_hoofs/error_handling/error_handling.hpp"
@@ -29,8 +29,8 @@ namespace drivebus::ipc {
 namespace {
 
 // A chunk is the payload plus iceoryx's chunk header (40 bytes), rounded up.
-constexpr std::uint32_t kSmallChunk = 1024;   // Response, Request
-constexpr std::uint32_t kLargeChunk = 4096;   // DriveSnapshot, BusStatus
+constexpr std::uint32_t kSmallChunk = 1024;  // Response, Request
+constexpr std::uint32_t kLargeChunk = 4096;  // DriveSnapshot, BusStatus
 static_assert(sizeof(shm::Response) + 64 <= kSmallChunk && sizeof(shm::Request) + 64 <= kSmallChunk);
 static_assert(sizeof(shm::DriveSnapshot) + 64 <= kLargeChunk && sizeof(shm::BusStatus) + 64 <= kLargeChunk);
 
@@ -149,21 +149,24 @@ std::expected<Layout, std::string> plan_layout(const config::Config& config) {
                 missing += (missing.empty() ? "" : ", ") + *g;
             }
         }
-        return std::unexpected(fmt::format("[ipc]: group(s) {} do not exist while the others do; create them "
-                                           "(systemd-sysusers drivebus.conf) or name existing groups in [ipc]",
-                                           missing));
+        return std::unexpected(
+            fmt::format("[ipc]: group(s) {} do not exist while the others do; create them "
+                        "(systemd-sysusers drivebus.conf) or name existing groups in [ipc]",
+                        missing));
     }
     const auto mine = sys::groups_of_this_user();
     if (std::ranges::find(mine, ipc.daemon_group) == mine.end()) {
-        return std::unexpected(fmt::format("[ipc]: this user is not in daemon_group {}, so it could not publish; "
-                                           "run drivebusd as the drivebus user or add the group "
-                                           "(usermod -aG {} USER)",
-                                           ipc.daemon_group, ipc.daemon_group));
+        return std::unexpected(
+            fmt::format("[ipc]: this user is not in daemon_group {}, so it could not publish; "
+                        "run drivebusd as the drivebus user or add the group "
+                        "(usermod -aG {} USER)",
+                        ipc.daemon_group, ipc.daemon_group));
     }
     if (std::ranges::find(mine, ipc.control_group) != mine.end()) {
-        return std::unexpected(fmt::format("[ipc]: this user is in control_group {} as well as daemon_group {}; "
-                                           "iceoryx allows one writable segment per user",
-                                           ipc.control_group, ipc.daemon_group));
+        return std::unexpected(
+            fmt::format("[ipc]: this user is in control_group {} as well as daemon_group {}; "
+                        "iceoryx allows one writable segment per user",
+                        ipc.control_group, ipc.daemon_group));
     }
     layout.grouped = true;
     layout.control_group = ipc.control_group;
@@ -192,14 +195,16 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
     switch (config.ipc.roudi) {
     case config::RouDiMode::Embedded:
         if (running) {
-            return std::unexpected("[ipc] roudi = \"embedded\", but a RouDi already runs (/tmp/roudi answers): "
-                                   "another drivebusd or iox-roudi; stop it, or set roudi = \"external\" or \"auto\"");
+            return std::unexpected(
+                "[ipc] roudi = \"embedded\", but a RouDi already runs (/tmp/roudi answers): "
+                "another drivebusd or iox-roudi; stop it, or set roudi = \"external\" or \"auto\"");
         }
         break;
     case config::RouDiMode::External:
         if (!running) {
-            return std::unexpected("[ipc] roudi = \"external\", but no RouDi answers on /tmp/roudi: start "
-                                   "drivebus-roudi.service (iox-roudi), or set roudi = \"auto\"");
+            return std::unexpected(
+                "[ipc] roudi = \"external\", but no RouDi answers on /tmp/roudi: start "
+                "drivebus-roudi.service (iox-roudi), or set roudi = \"auto\"");
         }
         break;
     case config::RouDiMode::Auto: break;
@@ -220,8 +225,7 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
             }
             roudi_config.m_sharedMemorySegments.push_back(
                 {iox::posix::PosixGroup::string_t(iox::cxx::TruncateToCapacity, segment.reader_group.c_str()),
-                 iox::posix::PosixGroup::string_t(iox::cxx::TruncateToCapacity, segment.writer_group.c_str()),
-                 pools});
+                 iox::posix::PosixGroup::string_t(iox::cxx::TruncateToCapacity, segment.writer_group.c_str()), pools});
         }
         roudi_config.iox::config::RouDiConfig::setDefaults();
         host->roudi_ = std::make_unique<Embedded>(roudi_config);
@@ -237,8 +241,8 @@ std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Conf
         while (!roudi_running() && sys::now() < deadline) {
             std::this_thread::sleep_for(std::chrono::milliseconds(1));
         }
-        const std::string socket = std::string(iox::platform::IOX_UDS_SOCKET_PATH_PREFIX) +
-                                   iox::roudi::IPC_CHANNEL_ROUDI_NAME;
+        const std::string socket =
+            std::string(iox::platform::IOX_UDS_SOCKET_PATH_PREFIX) + iox::roudi::IPC_CHANNEL_ROUDI_NAME;
         if (::chmod(socket.c_str(), 0660) != 0) {
             return std::unexpected("the embedded RouDi's socket " + socket + " did not appear");
         }
@@ -279,9 +283,9 @@ std::string Host::management_segment() {
 
 std::string Host::describe() const {
     const double mib = static_cast<double>(bytes_of(layout_)) / (1024.0 * 1024.0);
-    std::string text = embedded() ? fmt::format("embedded RouDi, {} segment(s), {:.1f} MiB of chunks",
-                                                layout_.segments.size(), mib)
-                                  : std::string("system RouDi (external)");
+    std::string text =
+        embedded() ? fmt::format("embedded RouDi, {} segment(s), {:.1f} MiB of chunks", layout_.segments.size(), mib)
+                   : std::string("system RouDi (external)");
     if (layout_.grouped) {
         text += fmt::format("; watchers: group {}, requests: group {}", layout_.segments.front().reader_group,
                             layout_.control_group);

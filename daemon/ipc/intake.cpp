@@ -22,8 +22,9 @@ struct Intake::Impl {
           ready("eventfd for bus " + b.name + "'s requests"),
           server(service(b.name, shm::kRequestEvent), iox::popo::ServerOptions{}),
           core(b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); }) {
-        if (listener.attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
-                                 iox::popo::createNotificationCallback(on_request, *this))
+        if (listener
+                .attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
+                             iox::popo::createNotificationCallback(on_request, *this))
                 .has_error()) {
             throw std::runtime_error("bus " + b.name + ": iceoryx refused a listener for its requests");
         }

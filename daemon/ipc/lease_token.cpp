@@ -36,7 +36,8 @@ TokenSource random_tokens() {
     return [] {
         auto token = draw();
         if (!token) {
-            log::error("control lease token: " + token.error().message() + "; stopping rather than hand out a "
+            log::error("control lease token: " + token.error().message() +
+                       "; stopping rather than hand out a "
                        "guessable token");
             std::abort();
         }

@@ -98,7 +98,7 @@ std::optional<std::string> roudi_in_the_way(const std::vector<std::string>& segm
     std::string found;
     std::string owners;
     for (const auto& path : paths) {
-        struct stat st {};
+        struct stat st{};
         // In sticky /tmp and /dev/shm only the owner (or root) may remove or replace a file.
         if (::lstat(path.c_str(), &st) != 0 || st.st_uid == me || me == 0) {
             continue;
@@ -125,7 +125,7 @@ std::vector<std::string> remove_stale_client_sockets(const std::string& dir) {
     std::vector<fs::path> candidates;  // first listed, then removed: the listing stays whole
     for (const auto& entry : fs::directory_iterator(dir, ec)) {
         const auto pid = runtime_pid(entry.path().filename().string());
-        struct stat st {};
+        struct stat st{};
         if (pid && ::lstat(entry.path().c_str(), &st) == 0 && S_ISSOCK(st.st_mode) && (st.st_uid == me || me == 0) &&
             process_gone(*pid)) {
             candidates.push_back(entry.path());

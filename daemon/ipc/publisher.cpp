@@ -1,8 +1,8 @@
 #include "ipc/publisher.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cstring>
-#include <fmt/format.h>
 
 #include "iceoryx_posh/popo/publisher.hpp"
 #include "ipc/convert.hpp"
@@ -21,8 +21,7 @@ iox::popo::PublisherOptions history_one() {
 }  // namespace
 
 struct Publisher::Channels {
-    explicit Channels(const config::BusConfig& bus)
-        : status(service(bus.name, shm::kStatusEvent), history_one()) {
+    explicit Channels(const config::BusConfig& bus) : status(service(bus.name, shm::kStatusEvent), history_one()) {
         for (const auto& d : bus.drives) {
             drives.push_back(std::make_unique<iox::popo::Publisher<shm::DriveSnapshot>>(
                 service(bus.name, std::string(shm::kDriveEventPrefix) + d.name), history_one()));

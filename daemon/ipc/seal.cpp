@@ -63,7 +63,7 @@ std::expected<void, std::string> seal_segment(const Segment& segment) {
         return failed(fd.error());
     }
     const sys::UniqueFd file(*fd);
-    struct stat st {};
+    struct stat st{};
     if (const auto rc = sys::posix_call("fstat", [&] { return ::fstat(file.get(), &st); }); !rc) {
         return failed(rc.error());
     }

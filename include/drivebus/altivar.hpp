@@ -27,8 +27,8 @@ struct DriveState {
     std::vector<std::string> flags;  // the meaning of each status bit set, from the profile
     std::optional<double> output_hz;
     std::optional<std::uint16_t> fault_code;
-    std::string fault_name;   // "Err5"
-    std::string fault_title;  // "Modbus communication time-out"
+    std::string fault_name;           // "Err5"
+    std::string fault_title;          // "Modbus communication time-out"
     std::vector<std::string> alarms;  // the meaning of each alarm bit set
     shm::LeaseStatus lease{};
 };
@@ -54,7 +54,7 @@ public:
     [[nodiscard]] std::expected<DriveState, Error> state(Milliseconds wait = Milliseconds(1000)) const;
 
 private:
-    [[nodiscard]] std::expected<void, Error> command(const std::optional<std::uint16_t> ControlInfo::*word,
+    [[nodiscard]] std::expected<void, Error> command(const std::optional<std::uint16_t> ControlInfo::* word,
                                                      const char* what, WriteOptions options) const;
     Drive drive_;
 };

@@ -55,8 +55,8 @@ enum class ErrorKind : std::uint8_t {
     // unknown (a write may have been applied: read it back)
     NoReply,
     InvalidArgument,  // bad input on this side: unknown register name, value too large
-    Unsupported,   // the drive's profile does not define what was asked (a helper)
-    LateReply,     // the drive answered, but only after the response time-out (Error::message says how late)
+    Unsupported,      // the drive's profile does not define what was asked (a helper)
+    LateReply,        // the drive answered, but only after the response time-out (Error::message says how late)
     // Not answered in time, and withdrawn before it reached the wire: never sent (safe to retry).
     Withdrawn,
     // Not answered in time, and it had reached the wire when given up: its outcome is unknown
@@ -165,7 +165,8 @@ public:
     // response. A response that took a lease gives this Bus its token.
     [[nodiscard]] std::expected<shm::Response, Error> request(shm::Request request) const;
     // A write to every drive (address 0): no reply, the bus waits the turnaround.
-    [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address, std::span<const std::uint16_t> values) const;
+    [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address,
+                                                       std::span<const std::uint16_t> values) const;
 
     // This Bus's client id, as it tells drivebusd (logs, fairness). It grants nothing: what lets
     // a request act under a control lease is the lease's secret token, which drivebusd gives
@@ -200,9 +201,9 @@ public:
 
     // Requests on the bus.
     [[nodiscard]] std::expected<std::vector<std::uint16_t>, Error> read(std::uint16_t address,
-                                                                       std::uint16_t count = 1) const;
+                                                                        std::uint16_t count = 1) const;
     [[nodiscard]] std::expected<std::vector<std::uint16_t>, Error> read(std::string_view reg,
-                                                                       std::uint16_t count = 1) const;
+                                                                        std::uint16_t count = 1) const;
     [[nodiscard]] std::expected<void, Error> write(std::uint16_t address, std::span<const std::uint16_t> values,
                                                    WriteOptions options = {}) const;
     [[nodiscard]] std::expected<void, Error> write(std::string_view reg, std::span<const std::uint16_t> values,
@@ -225,7 +226,8 @@ public:
     [[nodiscard]] std::expected<void, Error> release_control() const;
 
 private:
-    Drive(std::shared_ptr<Bus::Impl> bus, std::string name, std::uint8_t address, std::shared_ptr<const Profile> profile);
+    Drive(std::shared_ptr<Bus::Impl> bus, std::string name, std::uint8_t address,
+          std::shared_ptr<const Profile> profile);
     std::shared_ptr<Bus::Impl> bus_;
     std::string name_;
     std::uint8_t address_ = 0;

@@ -106,7 +106,7 @@ struct LeaseStatus {
 
 struct DriveSnapshot {
     std::uint32_t version = kPayloadVersion;
-    std::uint32_t size = 0;  // sizeof(DriveSnapshot) of the writer
+    std::uint32_t size = 0;      // sizeof(DriveSnapshot) of the writer
     std::uint64_t sequence = 0;  // +1 per snapshot of this drive
     std::int64_t published_ns = 0;
     std::array<char, kNameSize> bus{};
@@ -162,11 +162,11 @@ struct BusCounters {
 
 // Every counter of BusCounters, in its order, for code that maps them by name (X(name) each):
 // drivebusd copies the bus thread's counters into it by name, drivebusctl names them.
-#define DRIVEBUS_SHM_BUS_COUNTERS(X)                                                                       \
-    X(transmissions) X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows)      \
-    X(noise) X(foreign) X(malformed) X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections)       \
-    X(line_down) X(exceptions) X(requests_served) X(lease_expiries) X(late_replies) X(held_replies)   \
-    X(sync_probes)
+#define DRIVEBUS_SHM_BUS_COUNTERS(X)                                                                                  \
+    X(transmissions)                                                                                                  \
+    X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows) X(noise) X(foreign) X(malformed) \
+        X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections) X(line_down) X(exceptions) X(requests_served) \
+            X(lease_expiries) X(late_replies) X(held_replies) X(sync_probes)
 #define DRIVEBUS_SHM_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) == sizeof(std::uint64_t) * (0 DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_SHM_COUNT_ONE)),
               "DRIVEBUS_SHM_BUS_COUNTERS must list every field of shm::BusCounters");
@@ -228,11 +228,11 @@ struct Request {
     LeaseToken lease_token{};
     RequestKind kind = RequestKind::Read;
     std::uint8_t flags = 0;
-    std::uint8_t address = 0;    // the drive, when `drive` is empty
-    std::uint8_t function = 0;   // Write/Broadcast: 6 or 16; 0 lets drivebusd choose
-    std::uint16_t start = 0;     // first register
-    std::uint16_t count = 0;     // words to read, or words in `values`
-    std::int32_t pid = 0;        // the client's process, as it says: shown as the lease's holder
+    std::uint8_t address = 0;   // the drive, when `drive` is empty
+    std::uint8_t function = 0;  // Write/Broadcast: 6 or 16; 0 lets drivebusd choose
+    std::uint16_t start = 0;    // first register
+    std::uint16_t count = 0;    // words to read, or words in `values`
+    std::int32_t pid = 0;       // the client's process, as it says: shown as the lease's holder
     std::uint32_t reserved = 0;
     std::array<char, kNameSize> drive{};
     std::array<char, kNameSize> client_name{};  // for logs: "pump-control[1234]"
@@ -310,64 +310,64 @@ template <typename T>
 
 [[nodiscard]] constexpr std::string_view to_string(Status status) noexcept {
     switch (status) {
-        case Status::Ok: return "ok";
-        case Status::Exception: return "exception";
-        case Status::Timeout: return "timeout";
-        case Status::BadFrame: return "bad frame";
-        case Status::Rejected: return "rejected";
-        case Status::QueueFull: return "queue full";
-        case Status::BusDown: return "bus down";
-        case Status::NotPermitted: return "not permitted";
-        case Status::Late: return "late reply";
-        case Status::Withdrawn: return "withdrawn";
-        case Status::Sent: return "sent";
+    case Status::Ok: return "ok";
+    case Status::Exception: return "exception";
+    case Status::Timeout: return "timeout";
+    case Status::BadFrame: return "bad frame";
+    case Status::Rejected: return "rejected";
+    case Status::QueueFull: return "queue full";
+    case Status::BusDown: return "bus down";
+    case Status::NotPermitted: return "not permitted";
+    case Status::Late: return "late reply";
+    case Status::Withdrawn: return "withdrawn";
+    case Status::Sent: return "sent";
     }
     return "unknown";
 }
 [[nodiscard]] constexpr std::string_view to_string(RejectReason reason) noexcept {
     switch (reason) {
-        case RejectReason::None: return "none";
-        case RejectReason::UnknownDrive: return "unknown drive";
-        case RejectReason::UnknownRegister: return "unknown register";
-        case RejectReason::ReadOnly: return "read-only register";
-        case RejectReason::WriteOnly: return "write-only register";
-        case RejectReason::Quantity: return "quantity out of range";
-        case RejectReason::ValueOutOfRange: return "value out of range";
-        case RejectReason::Unsupported: return "function not supported by the drive";
-        case RejectReason::Malformed: return "malformed request";
-        case RejectReason::DaemonOwned: return "owned by drivebusd";
-        case RejectReason::BlockNotSetUp: return "indirect block not set up by drivebusd";
-        case RejectReason::NotPending: return "no such request pending";
-        case RejectReason::BlockNotApplied:
-            return "the drive has not applied the indirect block's selectors yet (it awaits a reset, or its "
-                   "set-up did not hold: see its health and drivebusd's log); read the registers one by one "
-                   "meanwhile";
+    case RejectReason::None: return "none";
+    case RejectReason::UnknownDrive: return "unknown drive";
+    case RejectReason::UnknownRegister: return "unknown register";
+    case RejectReason::ReadOnly: return "read-only register";
+    case RejectReason::WriteOnly: return "write-only register";
+    case RejectReason::Quantity: return "quantity out of range";
+    case RejectReason::ValueOutOfRange: return "value out of range";
+    case RejectReason::Unsupported: return "function not supported by the drive";
+    case RejectReason::Malformed: return "malformed request";
+    case RejectReason::DaemonOwned: return "owned by drivebusd";
+    case RejectReason::BlockNotSetUp: return "indirect block not set up by drivebusd";
+    case RejectReason::NotPending: return "no such request pending";
+    case RejectReason::BlockNotApplied:
+        return "the drive has not applied the indirect block's selectors yet (it awaits a reset, or its "
+               "set-up did not hold: see its health and drivebusd's log); read the registers one by one "
+               "meanwhile";
     }
     return "unknown";
 }
 [[nodiscard]] constexpr std::string_view to_string(DriveHealth health) noexcept {
     switch (health) {
-        case DriveHealth::Unknown: return "unknown";
-        case DriveHealth::Online: return "online";
-        case DriveHealth::Absent: return "absent";
-        case DriveHealth::Unconfigured: return "unconfigured";
-        case DriveHealth::AwaitingReset: return "awaiting reset";
+    case DriveHealth::Unknown: return "unknown";
+    case DriveHealth::Online: return "online";
+    case DriveHealth::Absent: return "absent";
+    case DriveHealth::Unconfigured: return "unconfigured";
+    case DriveHealth::AwaitingReset: return "awaiting reset";
     }
     return "unknown";
 }
 [[nodiscard]] constexpr std::string_view to_string(Fallback fallback) noexcept {
     switch (fallback) {
-        case Fallback::Hold: return "hold";
-        case Fallback::Stop: return "stop";
-        case Fallback::Freewheel: return "freewheel";
+    case Fallback::Hold: return "hold";
+    case Fallback::Stop: return "stop";
+    case Fallback::Freewheel: return "freewheel";
     }
     return "unknown";
 }
 [[nodiscard]] constexpr std::string_view to_string(LeaseState state) noexcept {
     switch (state) {
-        case LeaseState::Free: return "free";
-        case LeaseState::Held: return "held";
-        case LeaseState::Expired: return "expired";
+    case LeaseState::Free: return "free";
+    case LeaseState::Held: return "held";
+    case LeaseState::Expired: return "expired";
     }
     return "unknown";
 }

@@ -860,11 +860,13 @@ TEST(Read, IndirectWithinTheBlock) {
 
 TEST(Reject, TwoIndirectPollsThatDisagree) {
     // The block has one set of selectors: the second group would read what the first selected.
-    const auto text = with_poll("indirect = true\n    [[bus.drive.poll]]\n    name = \"slow\"\n"
-                                "    registers = [\"FE03\", \"FE05\"]\n    indirect = true\n    period = \"1s\"");
+    const auto text = with_poll(
+        "indirect = true\n    [[bus.drive.poll]]\n    name = \"slow\"\n"
+        "    registers = [\"FE03\", \"FE05\"]\n    indirect = true\n    period = \"1s\"");
     EXPECT_TRUE(rejected(text, {"drive 'pump'", "poll 'slow' and poll 'fast' both read the indirect read block"}));
-    const auto same = with_poll("indirect = true\n    [[bus.drive.poll]]\n    name = \"slow\"\n"
-                                "    registers = [\"FD00\", \"FD01\"]\n    indirect = true\n    period = \"1s\"");
+    const auto same = with_poll(
+        "indirect = true\n    [[bus.drive.poll]]\n    name = \"slow\"\n"
+        "    registers = [\"FD00\", \"FD01\"]\n    indirect = true\n    period = \"1s\"");
     EXPECT_EQ(parsed(same).buses.at(0).drives.at(0).polls.size(), 2U);
 }
 
@@ -878,12 +880,14 @@ TEST(Reject, WriteBlock) {
     EXPECT_TRUE(rejected(with_drive(R"(write_block = ["FA00"])"),
                          {"drive 'pump'", "write_block names 1 registers", "Altivar 21 takes 2-2"}));
     EXPECT_TRUE(rejected(with_drive(R"(write_block = ["FA00", "FD00"])"),
-                         {"drive 'pump'", "write_block 'FD00' is not one the indirect write block of Altivar 21 can "
-                                          "select (FA00, FA20, FA01, FA50, FA51, FA13)"}));
+                         {"drive 'pump'",
+                          "write_block 'FD00' is not one the indirect write block of Altivar 21 can "
+                          "select (FA00, FA20, FA01, FA50, FA51, FA13)"}));
     EXPECT_TRUE(rejected(with_drive(R"(write_block = ["FA00", "fa00"])"), {"write_block names FA00 twice"}));
     EXPECT_TRUE(rejected(with_drive("write_block = \"FA00\""), {"write_block"}));
-    EXPECT_TRUE(rejected(edited(kFan, "profile = \"atv58\"\n", "profile = \"atv58\"\nwrite_block = [\"W400\", \"W401\"]\n"),
-                         {"drive 'fan'", "write_block is set, but Altivar 58 has no indirect write block"}));
+    EXPECT_TRUE(
+        rejected(edited(kFan, "profile = \"atv58\"\n", "profile = \"atv58\"\nwrite_block = [\"W400\", \"W401\"]\n"),
+                 {"drive 'fan'", "write_block is set, but Altivar 58 has no indirect write block"}));
 }
 
 TEST(Warnings, ALeaseThatCanOnlyHold) {
@@ -921,8 +925,7 @@ TEST(ShmLimits, BusName) {
 
 TEST(ShmLimits, DriveName) {
     const auto most = shm::kNameSize - 1;
-    EXPECT_EQ(parsed(edited(kValid, "\"pump\"", '"' + name_of(most) + '"')).buses.at(0).drives.at(0).name.size(),
-              most);
+    EXPECT_EQ(parsed(edited(kValid, "\"pump\"", '"' + name_of(most) + '"')).buses.at(0).drives.at(0).name.size(), most);
     EXPECT_TRUE(rejected(edited(kValid, "\"pump\"", '"' + name_of(most + 1) + '"'),
                          {"bus 'line1' drive", "name '" + name_of(most + 1) + "'", limit_text(shm::kNameSize),
                           "a drive name in shared memory"}));
@@ -989,10 +992,10 @@ TEST(ShmLimits, RegistersPerSnapshotOverAllPollGroups) {
     const auto fit = parsed(polling_in_two_groups(most - 2, 10)).buses.at(0).drives.at(0);
     ASSERT_EQ(fit.polls.size(), 2U);
     EXPECT_EQ(fit.polls[0].registers.size() + fit.polls[1].registers.size(), most + 10);
-    EXPECT_TRUE(rejected(polling_in_two_groups(most - 1, 10),
-                         {"bus 'line1' drive 'pump' poll 'slow': registers",
-                          "read " + std::to_string(most + 1) + " different registers",
-                          "more than the " + std::to_string(most) + " a snapshot"}));
+    EXPECT_TRUE(rejected(
+        polling_in_two_groups(most - 1, 10),
+        {"bus 'line1' drive 'pump' poll 'slow': registers", "read " + std::to_string(most + 1) + " different registers",
+         "more than the " + std::to_string(most) + " a snapshot"}));
 }
 
 TEST(ShmLimits, GroupNames) {
@@ -1017,12 +1020,12 @@ std::string source_file(std::string_view name) {
 TEST(ShmLimits, TheDocumentationStatesShmHppsNumbers) {
     const auto chars = [](std::size_t field_size) { return std::to_string(field_size - 1) + " characters"; };
     const auto doc = source_file("docs/configuration.md");
-    for (const auto& row : {"| bus name | " + chars(shm::kNameSize), "| drive name | " + chars(shm::kNameSize),
-                            "| profile type | " + chars(shm::kProfileSize),
-                            "| serial device path | " + chars(shm::kDeviceSize),
-                            "| group names | " + chars(shm::kGroupSize),
-                            "| drives on one bus | " + std::to_string(shm::kMaxDrivesPerBus) + " |",
-                            "| registers in a drive's snapshot | " + std::to_string(shm::kMaxSnapshotRegisters) + " "}) {
+    for (const auto& row :
+         {"| bus name | " + chars(shm::kNameSize), "| drive name | " + chars(shm::kNameSize),
+          "| profile type | " + chars(shm::kProfileSize), "| serial device path | " + chars(shm::kDeviceSize),
+          "| group names | " + chars(shm::kGroupSize),
+          "| drives on one bus | " + std::to_string(shm::kMaxDrivesPerBus) + " |",
+          "| registers in a drive's snapshot | " + std::to_string(shm::kMaxSnapshotRegisters) + " "}) {
         EXPECT_NE(doc.find(row), std::string::npos) << "docs/configuration.md has no row " << row;
     }
     // Next to the keys: `name` of [[bus]] and [[bus.drive]], `device`, `profile`, `registers`.

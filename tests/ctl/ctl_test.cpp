@@ -35,8 +35,8 @@ Run ctl(const std::vector<std::string>& args) {
     static int n = 0;
     const auto err_file = fs::temp_directory_path() /
                           ("drivebusctl-test-" + std::to_string(::getpid()) + "-" + std::to_string(n++) + ".err");
-    std::vector<std::string> argv = {"/bin/sh", "-c", "f=$1; shift; exec \"$@\" 2>\"$f\"", "sh", err_file.string(),
-                                     DRIVEBUSCTL_PATH};
+    std::vector<std::string> argv = {
+        "/bin/sh", "-c", "f=$1; shift; exec \"$@\" 2>\"$f\"", "sh", err_file.string(), DRIVEBUSCTL_PATH};
     argv.insert(argv.end(), args.begin(), args.end());
     auto [status, out] = run_program(argv);
     std::stringstream err;
@@ -173,8 +173,10 @@ TEST(CtlStack, WriteWithTheUnitGoesThroughTheScaleAndGivesTheLeaseBack) {
     EXPECT_NE(r.out.find("FA01  0xFA01  3000  30.00 Hz  Frequency reference"), std::string::npos) << describe(r);
     expect_one_line_error(r, "released the control lease of drive 'pump'");
     EXPECT_TRUE(wait_until(
-        [&] { return stack.daemon_output().find("drivebusctl[") != std::string::npos &&
-                     stack.daemon_output().find("released the control lease") != std::string::npos; },
+        [&] {
+            return stack.daemon_output().find("drivebusctl[") != std::string::npos &&
+                   stack.daemon_output().find("released the control lease") != std::string::npos;
+        },
         5s))
         << stack.daemon_output();
     // The lease is free again (drivebusd republishes the snapshot's lease state).
@@ -199,11 +201,11 @@ TEST(CtlStack, WriteWithTheUnitGoesThroughTheScaleAndGivesTheLeaseBack) {
 TEST(CtlStack, BadValueSyntaxIsAUsageErrorAndNeverReachesTheBus) {
     Stack stack(quiet());
     const auto before = stack.sim_requests();
-    for (const auto& [value, message] : std::vector<std::pair<std::string, std::string>>{
-             {"30s", "FA01 is in Hz, not s"},
-             {"30.5", "give it with its unit (30.5 Hz)"},
-             {"fast", "is not a value"},
-             {"70000", "does not fit in a 16-bit register"}}) {
+    for (const auto& [value, message] :
+         std::vector<std::pair<std::string, std::string>>{{"30s", "FA01 is in Hz, not s"},
+                                                          {"30.5", "give it with its unit (30.5 Hz)"},
+                                                          {"fast", "is not a value"},
+                                                          {"70000", "does not fit in a 16-bit register"}}) {
         const auto r = ctl(with_bus(stack, {"write", "pump", "FA01", value}));
         EXPECT_EQ(r.status, 2) << describe(r);
         expect_one_line_error(r, message);
@@ -298,7 +300,8 @@ TEST(CtlStack, ScanFindsExactlyTheTwoDrives) {
 
     const auto text = ctl(with_bus(stack, {"scan", "--from", "1", "--to", "4"}));
     ASSERT_EQ(text.status, 0) << describe(text);
-    EXPECT_TRUE(std::regex_search(text.out, std::regex("\n1 +pump +")) && std::regex_search(text.out, std::regex("\n2 +fan +")))
+    EXPECT_TRUE(std::regex_search(text.out, std::regex("\n1 +pump +")) &&
+                std::regex_search(text.out, std::regex("\n2 +fan +")))
         << describe(text);
     EXPECT_EQ(text.out.find("\n3 "), std::string::npos) << describe(text);
     EXPECT_NE(text.out.find("2 of 4 addresses answered"), std::string::npos) << describe(text);
@@ -336,7 +339,8 @@ TEST(CtlStack, ListAndStatus) {
     EXPECT_NE(pump.out.find("health    online\n"), std::string::npos) << describe(pump);
     EXPECT_NE(pump.out.find("state     stopped, 0.00 Hz, no fault"), std::string::npos) << describe(pump);
     EXPECT_NE(pump.out.find("lease     free"), std::string::npos) << describe(pump);
-    EXPECT_TRUE(std::regex_search(pump.out, std::regex("\nFD00 +0xFD00 +0 +0\\.00 Hz +yes +\\d+ ms +Output frequency\n")))
+    EXPECT_TRUE(
+        std::regex_search(pump.out, std::regex("\nFD00 +0xFD00 +0 +0\\.00 Hz +yes +\\d+ ms +Output frequency\n")))
         << describe(pump);
 
     const auto pump_json = json::parse(ctl(with_bus(stack, {"--json", "status", "pump"})).out);
@@ -404,7 +408,8 @@ TEST(CtlStack, WatchRefreshesInPlaceInATerminalAndQuitsOnQ) {
         },
         20s))
         << screen;
-    EXPECT_TRUE(std::regex_search(screen, std::regex("\npump .* online .* (stopped|running forward), \\d+\\.\\d\\d Hz")))
+    EXPECT_TRUE(
+        std::regex_search(screen, std::regex("\npump .* online .* (stopped|running forward), \\d+\\.\\d\\d Hz")))
         << screen;
     EXPECT_NE(screen.find("W450="), std::string::npos) << screen;
     // Live: the screen changes (ages, counters) and is redrawn in place, not scrolled.
@@ -433,7 +438,8 @@ TEST(CtlStack, WatchWithoutATerminalPrintsPlainTablesUntilSigterm) {
         [&] {
             const auto out = watch.output();
             std::size_t tables = 0;
-            for (auto at = out.find("DRIVE  ADDRESS"); at != std::string::npos; at = out.find("DRIVE  ADDRESS", at + 1)) {
+            for (auto at = out.find("DRIVE  ADDRESS"); at != std::string::npos;
+                 at = out.find("DRIVE  ADDRESS", at + 1)) {
                 ++tables;
             }
             return tables >= 3 && row_online(out, "fan");
@@ -487,7 +493,8 @@ TEST(CtlRejected, UnknownRegister) {
 
 TEST(CtlRejected, ReadOnlyRegister) {
     Stack stack(quiet());
-    expect_refused(stack, {"write", "pump", "FD00", "1"}, 3, "read-only register (register 0xFD00); FD00 can only be read");
+    expect_refused(stack, {"write", "pump", "FD00", "1"}, 3,
+                   "read-only register (register 0xFD00); FD00 can only be read");
 }
 
 // No register of atv21.toml or atv58.toml is write-only: that rejection cannot be reached
@@ -503,13 +510,16 @@ TEST(CtlRejected, Quantity) {
 
 TEST(CtlRejected, ValueOutOfRange) {
     Stack stack(quiet());
-    expect_refused(stack, {"write", "pump", "F803", "101"}, 3, "value out of range (register 0x0803); F803 takes 0..100");
-    expect_refused(stack, {"write", "pump", "FA51", "1024"}, 3, "value out of range (register 0xFA51); FA51 takes 0..1023");
+    expect_refused(stack, {"write", "pump", "F803", "101"}, 3,
+                   "value out of range (register 0x0803); F803 takes 0..100");
+    expect_refused(stack, {"write", "pump", "FA51", "1024"}, 3,
+                   "value out of range (register 0xFA51); FA51 takes 0..1023");
 }
 
 TEST(CtlRejected, FunctionNotSupported) {
     Stack stack(quiet());
-    expect_refused(stack, {"identify", "fan"}, 3, "function not supported by the drive; profile atv58 has no device identification");
+    expect_refused(stack, {"identify", "fan"}, 3,
+                   "function not supported by the drive; profile atv58 has no device identification");
 }
 
 TEST(CtlRejected, JsonModeAddsAnErrorDocument) {
@@ -561,14 +571,14 @@ TEST(CtlNoDaemon, ListSaysDrivebusdIsNotRunning) {
 
 TEST(CtlNoDaemon, UsageErrorsExitTwo) {
     for (const auto& args : std::vector<std::vector<std::string>>{{},
-                                                                 {"frobnicate"},
-                                                                 {"read", "pump"},
-                                                                 {"write", "pump", "FA01"},
-                                                                 {"--timeout", "5x", "list"},
-                                                                 {"watch", "--interval", "0"},
-                                                                 {"scan", "--from", "0"},
-                                                                 {"scan", "--from", "5", "--to", "4"},
-                                                                 {"read", "pump", "FD00", "70000"}}) {
+                                                                  {"frobnicate"},
+                                                                  {"read", "pump"},
+                                                                  {"write", "pump", "FA01"},
+                                                                  {"--timeout", "5x", "list"},
+                                                                  {"watch", "--interval", "0"},
+                                                                  {"scan", "--from", "0"},
+                                                                  {"scan", "--from", "5", "--to", "4"},
+                                                                  {"read", "pump", "FD00", "70000"}}) {
         const auto r = ctl(args);
         std::string joined;
         for (const auto& a : args) {

@@ -161,7 +161,8 @@ TEST(CtlFormat, RejectionHintsComeFromTheProfile) {
     EXPECT_EQ(rejection_hint(e, &atv21(), "write", 0xFD00, 1), "FD00 can only be read");
     EXPECT_EQ(rejection_hint(e, &atv21(), "write", 0xFD00, 2), "");  // which of them, the hint cannot tell
     e.reason = shm::RejectReason::UnknownRegister;
-    EXPECT_EQ(rejection_hint(e, &atv21(), "read", 0x1234, 1), "profile atv21 does not list it (its registers: atv21.toml)");
+    EXPECT_EQ(rejection_hint(e, &atv21(), "read", 0x1234, 1),
+              "profile atv21 does not list it (its registers: atv21.toml)");
     e.kind = ErrorKind::Timeout;
     EXPECT_EQ(rejection_hint(e, &atv21(), "read", 0xFD00, 1), "");
     EXPECT_EQ(exception_name(2), "illegal data address");

@@ -35,9 +35,8 @@ TEST(CtlJson, ValuesAndNesting) {
                    .set("none", Json())
                    .set("nan", std::nan(""))
                    .set("list", Json::array().push(1).push("two").push(Json::object()));
-    EXPECT_EQ(doc.dump(),
-              R"({"name":"pump","address":1,"raw":65535,"negative":-5,"value":30.5,"whole":30,"up":true,)"
-              R"("none":null,"nan":null,"list":[1,"two",{}]})");
+    EXPECT_EQ(doc.dump(), R"({"name":"pump","address":1,"raw":65535,"negative":-5,"value":30.5,"whole":30,"up":true,)"
+                          R"("none":null,"nan":null,"list":[1,"two",{}]})");
 }
 
 TEST(CtlJson, SettingAKeyAgainReplacesIt) {

@@ -83,14 +83,15 @@ TEST(CtlView, DriveStatusShowsStateLeaseAndEveryRegister) {
     const auto text = drive_status_text(s, &profile("atv21"), kNow);
     EXPECT_NE(text.find("pump (address 1, profile atv21, bus line1)"), std::string::npos) << text;
     EXPECT_NE(text.find("#42, 20 ms ago"), std::string::npos) << text;
-    EXPECT_NE(text.find("running forward, 29.50 Hz, fault Err5 (Communication error (Modbus time-out, see F803/F603)), alarms: "
-                        "Overcurrent alarm, Undercurrent alarm"),
-              std::string::npos)
+    EXPECT_NE(
+        text.find(
+            "running forward, 29.50 Hz, fault Err5 (Communication error (Modbus time-out, see F803/F603)), alarms: "
+            "Overcurrent alarm, Undercurrent alarm"),
+        std::string::npos)
         << text;
     EXPECT_NE(text.find("held by pump-control[77] (expires in 800 ms); fallback stop, 0 expiries"), std::string::npos)
         << text;
-    EXPECT_NE(text.find("FD00  0xFD00   2950   29.50 Hz  yes    35 ms  Output frequency"), std::string::npos)
-        << text;
+    EXPECT_NE(text.find("FD00  0xFD00   2950   29.50 Hz  yes    35 ms  Output frequency"), std::string::npos) << text;
     EXPECT_NE(text.find("FA01  0xFA01   3000   30.00 Hz  yes"), std::string::npos) << text;
 }
 

@@ -1,11 +1,11 @@
 // The master's bus thread on a real pty against drivebus-sim, with real time, real threads
 // and the simulator's fault injection. Every wait is a condition with a deadline.
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <poll.h>
 #include <pty.h>
-#include <termios.h>
-#include <gtest/gtest.h>
 #include <sys/ioctl.h>
+#include <termios.h>
 
 #include <cstring>
 #include <filesystem>
@@ -13,8 +13,8 @@
 #include <mutex>
 
 #include "bus/bus_loop.hpp"
-#include "rtu/codec.hpp"
 #include "fixtures.hpp"
+#include "rtu/codec.hpp"
 #include "sim_process.hpp"
 
 namespace drivebus::test {
@@ -331,7 +331,6 @@ TEST_F(BusLoopTest, HangUpIsLineDownWithoutSpinning) {
     EXPECT_EQ(loop->status().counters.line_down, 1U);
     EXPECT_EQ(recorder.wrong_values(), 0U);
 }
-
 
 // A port that takes no output (stopped, as by an XOFF, or its buffer full): the bus thread
 // waits for room in its event loop, not in a wait of its own, so it still reads what arrives

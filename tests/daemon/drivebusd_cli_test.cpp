@@ -10,8 +10,8 @@
 #include <optional>
 #include <sstream>
 
-#include <sched.h>
 #include <fcntl.h>
+#include <sched.h>
 #include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -305,8 +305,7 @@ TEST_F(DrivebusdCli, ARouDiThatHoldsItsLockWithoutAnsweringIsOneLine) {
     ::unlink(lock_path);
     EXPECT_EQ(status, 1) << out;
     EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
-    EXPECT_NE(out.find("a RouDi holds /tmp/iox-unique-roudi.lock but does not answer on /tmp/roudi"),
-              std::string::npos)
+    EXPECT_NE(out.find("a RouDi holds /tmp/iox-unique-roudi.lock but does not answer on /tmp/roudi"), std::string::npos)
         << out;
 }
 

@@ -50,8 +50,7 @@ const config::BusConfig& bus() {
 
 bool in_block(const Profile& p, std::uint8_t function, std::uint16_t start, std::size_t count) {
     const auto* block = p.block(function);
-    return block != nullptr && block->address == start && count >= block->min_quantity &&
-           count <= block->max_quantity;
+    return block != nullptr && block->address == start && count >= block->min_quantity && count <= block->max_quantity;
 }
 
 // Every word of the range is a register of the profile that allows this access (and, for a
@@ -103,8 +102,9 @@ void check_admitted(const shm::Request& q, const ipc::Admitted& a) {
     const auto for_each_profile = [&](auto&& f) {
         if (a.drive == ipc::kBroadcast) {
             for (const auto& d : b.drives) {
-                check(std::ranges::find(d.profile->functions.broadcast, function) != d.profile->functions.broadcast.end(),
-                      "a broadcast a drive does not take");
+                check(
+                    std::ranges::find(d.profile->functions.broadcast, function) != d.profile->functions.broadcast.end(),
+                    "a broadcast a drive does not take");
                 f(*d.profile);
             }
         } else {

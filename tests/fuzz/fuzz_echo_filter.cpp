@@ -15,9 +15,9 @@
 #include "master/echo_filter.hpp"
 
 using namespace drivebus;
+using fuzz::check;
 using master::EchoFilter;
 using master::EchoSetting;
-using fuzz::check;
 
 namespace {
 

@@ -28,8 +28,7 @@ constexpr rtu::Duration kTurnaround = 1ms;
 
 bool in_block(const Profile& p, std::uint8_t function, std::uint16_t start, std::size_t count) {
     const auto* block = p.block(function);
-    return block != nullptr && block->address == start && count >= block->min_quantity &&
-           count <= block->max_quantity;
+    return block != nullptr && block->address == start && count >= block->min_quantity && count <= block->max_quantity;
 }
 
 void check_access(const Profile& p, std::uint8_t function, std::uint16_t start, std::span<const std::uint16_t> values,

@@ -195,8 +195,7 @@ public:
                std::to_string(references_landed_) + " references landed; commands valid " +
                std::to_string(verdicts[Verdict::Valid]) + ", invalid " + std::to_string(verdicts[Verdict::Invalid]) +
                ", uncertain " + std::to_string(verdicts[Verdict::Uncertain]) + "; grants " + std::to_string(grants_) +
-               ", expiries " + std::to_string(leases_->expiries()) + ", power cycles " +
-               std::to_string(power_cycles_);
+               ", expiries " + std::to_string(leases_->expiries()) + ", power cycles " + std::to_string(power_cycles_);
     }
 
     [[nodiscard]] std::size_t snapshot_values() const noexcept { return snapshot_values_; }

@@ -41,8 +41,8 @@ TEST(LockFree, NothingBetweenTheBusThreadAndTheIpcThreadTakesALock) {
     };
     // iceoryx's UserTrigger takes a mutex on trigger(): the bus thread wakes the ipc side
     // through an eventfd instead.
-    const std::array forbidden = {"std::mutex",    "lock_guard",         "unique_lock", "scoped_lock",
-                                  "shared_mutex",  "condition_variable", "UserTrigger", "std::promise"};
+    const std::array forbidden = {"std::mutex",   "lock_guard",         "unique_lock", "scoped_lock",
+                                  "shared_mutex", "condition_variable", "UserTrigger", "std::promise"};
     for (const auto* file : files) {
         const std::string text = read(file);
         ASSERT_FALSE(text.empty()) << file;

@@ -46,8 +46,8 @@ void ensure_group(const char* name) {
 // socket made with the process's effective group, so it must be RouDi's.
 void ensure_user(const char* name, const std::string& extra_groups) {
     if (::getpwnam(name) == nullptr) {
-        std::vector<std::string> argv = {"/usr/sbin/useradd", "--system", "--no-create-home", "--shell",
-                                         "/usr/sbin/nologin", "--gid", kWatch};
+        std::vector<std::string> argv = {
+            "/usr/sbin/useradd", "--system", "--no-create-home", "--shell", "/usr/sbin/nologin", "--gid", kWatch};
         if (!extra_groups.empty()) {
             argv.insert(argv.end(), {"--groups", extra_groups});
         }
@@ -115,8 +115,9 @@ protected:
         bus_ = "a" + std::to_string(::getpid());
         const auto config = dir_ / "drivebusd.toml";
         std::ofstream(config) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
-                              << "[ipc]\nroudi = \"" << (external() ? "external" : "embedded") << "\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
-                              << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
+                              << "[ipc]\nroudi = \"" << (external() ? "external" : "embedded") << "\"\nwatch_group = \""
+                              << kWatch << "\"\ncontrol_group = \"" << kControl << "\"\ndaemon_group = \""
+                              << kDaemonGroup << "\"\n"
                               << "[[bus]]\nname = \"" << bus_ << "\"\ndevice = \"" << sim_->link().string()
                               << "\"\nparity = \"none\"\nretries = 3\n"
                                  "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
@@ -176,7 +177,8 @@ TEST_F(Access, DrivebusctlReadsAViewersPolledRegisterFromTheSnapshot) {
     EXPECT_NE(out.find("dbt-control"), std::string::npos) << out;
     EXPECT_NE(out.find("FD00"), std::string::npos) << out;
     // A register nobody polls needs a request, which the viewer may not send.
-    const auto [refused, refused_out] = run_program(as(kViewer, {DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FE03"}));
+    const auto [refused, refused_out] =
+        run_program(as(kViewer, {DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FE03"}));
     EXPECT_EQ(refused, 4) << refused_out;
 }
 
@@ -243,18 +245,17 @@ TEST_F(AccessExternal, AViewerCannotOpenASegmentForWriting) {
 TEST_F(Access, AnotherEffectiveGroupIsToldWhichOneToUse) {
     // RouDi could not answer this process at all; the library says so at once.
     // In the watch group, but as a supplementary group only.
-    const auto [status, out] = run_program({"/usr/bin/setpriv", std::string("--reuid=") + kOperator,
-                                            std::string("--regid=") + kControl,
-                                            std::string("--groups=") + kWatch + "," + kControl, "--", TEST_CLIENT_PATH,
-                                            bus_, "snapshots", "1"});
+    const auto [status, out] = run_program(
+        {"/usr/bin/setpriv", std::string("--reuid=") + kOperator, std::string("--regid=") + kControl,
+         std::string("--groups=") + kWatch + "," + kControl, "--", TEST_CLIENT_PATH, bus_, "snapshots", "1"});
     EXPECT_EQ(status, 1) << out;
     EXPECT_NE(out.find("effective group must be dbt-watch"), std::string::npos) << out;
 }
 
 TEST_F(Access, OutsideTheWatchGroupIsToldToJoinIt) {
-    const auto [status, out] = run_program({"/usr/bin/setpriv", std::string("--reuid=") + kOperator,
-                                            std::string("--regid=") + kControl, "--clear-groups", "--",
-                                            TEST_CLIENT_PATH, bus_, "snapshots", "1"});
+    const auto [status, out] =
+        run_program({"/usr/bin/setpriv", std::string("--reuid=") + kOperator, std::string("--regid=") + kControl,
+                     "--clear-groups", "--", TEST_CLIENT_PATH, bus_, "snapshots", "1"});
     EXPECT_EQ(status, 1) << out;
     EXPECT_NE(out.find("join group dbt-watch"), std::string::npos) << out;
 }

@@ -143,7 +143,8 @@ TEST(Admission, TheSelectorsOfEveryBlockBelongToDrivebusd) {
     EXPECT_EQ(a.error().register_address, 0x0875);
     EXPECT_EQ(a.error().why, "F875 is owned by drivebusd: selector of the read block at 0x1875");
     // Every selector, of both blocks, with FC06 or FC16, a value the profile would take or not.
-    for (const std::uint16_t selector : std::initializer_list<std::uint16_t>{0x0870, 0x0871, 0x0875, 0x0876, 0x0877, 0x0878, 0x0879}) {
+    for (const std::uint16_t selector :
+         std::initializer_list<std::uint16_t>{0x0870, 0x0871, 0x0875, 0x0876, 0x0877, 0x0878, 0x0879}) {
         for (const std::uint16_t value : std::initializer_list<std::uint16_t>{0, 1, 3}) {
             auto w = request(shm::RequestKind::Write, "pump", selector, {value});
             EXPECT_EQ(reason_of(b, w), RejectReason::DaemonOwned) << std::hex << selector;
@@ -324,7 +325,7 @@ TEST(Lease, ACopiedIdOrAWrongTokenGetsNotPermittedAndCannotRelease) {
     EXPECT_EQ(published.holder_pid, 11);
     const Holder copied{std::string(shm::view(published.holder)), published.holder_pid};
     LeaseToken wrong = mine.token;
-    wrong[1] ^= 1;  // one bit off
+    wrong[1] ^= 1;                                               // one bit off
     const LeaseToken guessed{mine.token[0] + 1, mine.token[1]};  // the next of a counter
     for (const auto& token : {LeaseToken{}, wrong, guessed}) {
         const auto write = t.acquire(0, token, copied, false, t0 + 10ms);
@@ -551,9 +552,9 @@ TEST(Convert, ResponsesCarryReadValuesExceptionsAndIdentity) {
     EXPECT_EQ(shm::view(ident.identity[1]), "ATV21H075M3X");
 
     for (const auto& [outcome, status] : {std::pair{master::Outcome::Timeout, shm::Status::Timeout},
-                                         {master::Outcome::BadFrame, shm::Status::BadFrame},
-                                         {master::Outcome::EchoMismatch, shm::Status::BadFrame},
-                                         {master::Outcome::BusDown, shm::Status::BusDown}}) {
+                                          {master::Outcome::BadFrame, shm::Status::BadFrame},
+                                          {master::Outcome::EchoMismatch, shm::Status::BadFrame},
+                                          {master::Outcome::BusDown, shm::Status::BusDown}}) {
         master::Result f;
         f.outcome = outcome;
         shm::Response o;

@@ -193,8 +193,8 @@ TEST(Ipc, ALeaseThatRunsOutStopsTheDrive_HungClient) {
     const std::int64_t last_keep_alive_ns = std::stoll(hung[0].substr(5));
     const Clock::time_point last_keep_alive{std::chrono::nanoseconds(last_keep_alive_ns)};
     ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == 0xC000; },
-                           std::chrono::duration_cast<std::chrono::milliseconds>(
-                               last_keep_alive + kLease + kPoll + kLoadAllowance - Clock::now())))
+                           std::chrono::duration_cast<std::chrono::milliseconds>(last_keep_alive + kLease + kPoll +
+                                                                                 kLoadAllowance - Clock::now())))
         << "FA00 = " << stack.sim_register(1, "FA00") << "\n"
         << stack.daemon_output();
     // The process is alive all along: its main thread sees the expiry it caused.

@@ -47,13 +47,11 @@ TEST(Ownership, ASelectorOfTheReadBlockIsRefusedAndNeverReachesTheDrive) {
     expect_read_block_set_up(stack);
     const auto [status, out] = ctl(stack, {"write", "pump", "F875", "3"});
     EXPECT_EQ(status, kExitRejected) << out;
-    EXPECT_NE(out.find("F875 is owned by drivebusd: selector of the read block at 0x1875"), std::string::npos)
-        << out;
+    EXPECT_NE(out.find("F875 is owned by drivebusd: selector of the read block at 0x1875"), std::string::npos) << out;
     EXPECT_EQ(lines(out), 1U) << out;
     const auto [write_status, write_out] = ctl(stack, {"write", "pump", "F870", "3"});
     EXPECT_EQ(write_status, kExitRejected) << write_out;
-    EXPECT_NE(write_out.find("F870 is owned by drivebusd: selector of the write block at 0x1870"),
-              std::string::npos)
+    EXPECT_NE(write_out.find("F870 is owned by drivebusd: selector of the write block at 0x1870"), std::string::npos)
         << write_out;
     // The drive still holds what drivebusd wrote, and its write log has no client's selector.
     EXPECT_EQ(stack.sim_register(1, "F875"), 2);

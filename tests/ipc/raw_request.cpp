@@ -98,8 +98,8 @@ int main(int argc, char** argv) {
     using namespace drivebus;
     const std::string name = "raw_request-" + std::to_string(::getpid());
     iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
-    iox::popo::UntypedClient client({"drivebus", iox::capro::IdString_t(iox::cxx::TruncateToCapacity, argv[1]),
-                                     "requests"});
+    iox::popo::UntypedClient client(
+        {"drivebus", iox::capro::IdString_t(iox::cxx::TruncateToCapacity, argv[1]), "requests"});
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(argc == 5 ? 30 : 3);
     while (client.getConnectionState() != iox::ConnectionState::CONNECTED && std::chrono::steady_clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));

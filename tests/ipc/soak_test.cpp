@@ -85,12 +85,12 @@ TEST(IpcSoak, ValuesWritesMemoryAndDescriptorsHoldUnderFaultsAndKills) {
     const Churn plan[] = {{100, 120}, {300, 120}, {500, 120}};
     std::vector<std::unique_ptr<Client>> churns;
     for (const auto& c : plan) {
-        churns.push_back(std::make_unique<Client>(std::vector<std::string>{
-            stack.bus(), "churn", std::to_string(c.count), std::to_string(c.first)}));
+        churns.push_back(std::make_unique<Client>(
+            std::vector<std::string>{stack.bus(), "churn", std::to_string(c.count), std::to_string(c.first)}));
     }
     constexpr Churn kVictim{700, 300};
-    auto victim = std::make_unique<Client>(std::vector<std::string>{
-        stack.bus(), "churn", std::to_string(kVictim.count), std::to_string(kVictim.first)});
+    auto victim = std::make_unique<Client>(
+        std::vector<std::string>{stack.bus(), "churn", std::to_string(kVictim.count), std::to_string(kVictim.first)});
     auto holder = std::make_unique<Client>(std::vector<std::string>{stack.bus(), "command", "10"});
     ASSERT_TRUE(holder->printed("holding", 10s)) << holder->output();
 
@@ -107,8 +107,10 @@ TEST(IpcSoak, ValuesWritesMemoryAndDescriptorsHoldUnderFaultsAndKills) {
     constexpr int kRounds = 12;
     for (int round = 0; round < kRounds && !all_done(); ++round) {
         const int drive = std::uniform_int_distribution<int>(1, 2)(rng);
-        const std::string faults[] = {"",       "crc=0.3", "drop=0.3", "late=" + std::to_string(std::uniform_int_distribution<int>(50, 250)(rng)) + "ms",
-                                      "gap=3:2", "noise=2:2"};
+        const std::string faults[] = {
+            "",         "crc=0.3",
+            "drop=0.3", "late=" + std::to_string(std::uniform_int_distribution<int>(50, 250)(rng)) + "ms",
+            "gap=3:2",  "noise=2:2"};
         const std::string& fault = faults[std::uniform_int_distribution<std::size_t>(0, std::size(faults) - 1)(rng)];
         ASSERT_EQ(stack.sim().command("clear").rfind("ok", 0), 0U);
         if (!fault.empty()) {
@@ -120,7 +122,8 @@ TEST(IpcSoak, ValuesWritesMemoryAndDescriptorsHoldUnderFaultsAndKills) {
         const auto before = stack.sim_requests();
         ASSERT_TRUE(wait_until([&] { return stack.sim_requests() >= before + 20; }, 60s))
             << "no traffic under " << (fault.empty() ? "no fault" : fault) << " on drive " << drive << ": "
-            << stack.sim().command("stats") << "\n" << stack.daemon_output();
+            << stack.sim().command("stats") << "\n"
+            << stack.daemon_output();
         if (round == kill_victim_at) {
             victim->kill9();
         }

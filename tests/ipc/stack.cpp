@@ -43,16 +43,18 @@ Stack::Stack(StackOptions options) {
     fs::create_directories(dir_ / "sim");
     sim_ = std::make_unique<SimProcess>(args, dir_ / "sim");
     config_ = dir_ / "drivebusd.toml";
-    const std::string pump_polls = "\n    [[bus.drive.poll]]\n    registers = [\"FD00\", \"FD01\", \"FE03\", \"FE05\", "
-                                   "\"FC91\"]\n    indirect = true\n    period = \"" +
-                                   options.poll_period +
-                                   "\"\n    [[bus.drive.poll]]\n    name = \"slow\"\n    registers = [\"FA01\", "
-                                   "\"FC90\"]\n    period = \"200ms\"\n";
+    const std::string pump_polls =
+        "\n    [[bus.drive.poll]]\n    registers = [\"FD00\", \"FD01\", \"FE03\", \"FE05\", "
+        "\"FC91\"]\n    indirect = true\n    period = \"" +
+        options.poll_period +
+        "\"\n    [[bus.drive.poll]]\n    name = \"slow\"\n    registers = [\"FA01\", "
+        "\"FC90\"]\n    period = \"200ms\"\n";
     const std::string fan_polls =
         "    [[bus.drive.poll]]\n    registers = [\"W450\", \"W451\", \"W452\"]\n    period = \"100ms\"\n";
     std::ofstream(config_) << "[realtime]\nmode = \"off\"\nlock_memory = false\n"
                               "[ipc]\nroudi = \""
-                           << options.roudi << "\"\n"
+                           << options.roudi
+                           << "\"\n"
                               "[[bus]]\nname = \""
                            << bus_ << "\"\ndevice = \"" << sim_->link().string()
                            << "\"\nparity = \"none\"\nresponse_timeout = \"100ms\"\nretries = 3\n"
@@ -65,8 +67,7 @@ Stack::Stack(StackOptions options) {
     }
     daemon_ = std::make_unique<Child>(std::vector<std::string>{DRIVEBUSD_PATH, "--config", config_.string()});
     // Ready when drivebusd's RouDi answers and the daemon says it runs.
-    if (!wait_until([&] { return roudi_answers() && daemon_->output().find("running:") != std::string::npos; },
-                    10s)) {
+    if (!wait_until([&] { return roudi_answers() && daemon_->output().find("running:") != std::string::npos; }, 10s)) {
         throw std::runtime_error("drivebusd did not come up: " + daemon_->output());
     }
     if (options.reset_pump && config_text().find("indirect = true") != std::string::npos) {

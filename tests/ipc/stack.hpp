@@ -19,7 +19,7 @@ struct StackOptions {
     std::string poll_period = "50ms";
     bool polls = true;  // false: no [[bus.drive.poll]], so only clients' requests reach the line
     bool paced = true;
-    bool fan = true;         // the ATV58 at address 2
+    bool fan = true;  // the ATV58 at address 2
     std::string roudi = "embedded";
     // The simulated ATV21 starts as from the factory, so drivebusd writes its block selectors,
     // which it applies only after a reset (guide section 6): the stack then switches it off and

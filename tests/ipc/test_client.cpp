@@ -51,12 +51,12 @@ int fail(const drivebus::Error& e) {
 // on a machine loaded by the rest of the suite a reply can be spoiled or late, which is not
 // what these tests are about. Anything else ends the client.
 std::expected<std::vector<std::uint16_t>, drivebus::Error> read_on_a_busy_machine(const drivebus::Drive& drive,
-                                                                                 const char* reg) {
+                                                                                  const char* reg) {
     for (int attempt = 0;; ++attempt) {
         auto v = drive.read(reg);
-        const bool line = !v && (v.error().kind == drivebus::ErrorKind::Timeout ||
-                                 v.error().kind == drivebus::ErrorKind::BadFrame ||
-                                 v.error().kind == drivebus::ErrorKind::LateReply);
+        const bool line =
+            !v && (v.error().kind == drivebus::ErrorKind::Timeout || v.error().kind == drivebus::ErrorKind::BadFrame ||
+                   v.error().kind == drivebus::ErrorKind::LateReply);
         if (!line || attempt == 4) {
             return v;
         }
@@ -220,8 +220,8 @@ int main(int argc, char** argv) {
         }
         std::printf("lease %s holder %s fallback_ok %u registers %u\n",
                     std::string(drivebus::shm::to_string(last.lease.state)).c_str(),
-                    drivebus::shm::view(last.lease.holder).empty() ? "none" : "kept", static_cast<unsigned>(last.lease.fallback_ok),
-                    static_cast<unsigned>(last.register_count));
+                    drivebus::shm::view(last.lease.holder).empty() ? "none" : "kept",
+                    static_cast<unsigned>(last.lease.fallback_ok), static_cast<unsigned>(last.register_count));
         return last.lease.state == drivebus::shm::LeaseState::Expired ? 0 : 1;
     }
     if (mode == "impostor" && argc == 4) {

@@ -292,8 +292,7 @@ TEST_F(EngineTest, AFaultClearedHasTheBlockConfirmedAgain) {
     ASSERT_TRUE(drives.drive(1)->poke("F803", 0).has_value());
     drives.drive(1)->power_cycle(kStart);
     start();
-    ASSERT_TRUE(line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::Online; },
-                                     2s));
+    ASSERT_TRUE(line->run_until_true([&] { return !snapshots.empty() && last("pump").health == Health::Online; }, 2s));
     ASSERT_TRUE(engine->submit({7, 1, {1, rtu::WriteSingleRegister{0xFA00, 0xC000 | (1U << 12)}}}).has_value());
     ASSERT_TRUE(line->run_until_true([&] { return (last("pump").registers.at(0xFD01).value & 0x2U) != 0; }, 2s));
     const std::size_t before_reset = line->transmissions().size();

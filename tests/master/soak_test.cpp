@@ -52,16 +52,16 @@ struct Writable {
     std::uint16_t min;
     std::uint16_t max;
 };
-const Writable kPumpWrites[] = {{"FA01", 0, 8000},  {"FA13", 0, 24000}, {"FA20", 0, 65535},
-                                {"FA50", 0, 255},   {"FA51", 0, 1023},  {"ACC", 1, 300}};
+const Writable kPumpWrites[] = {{"FA01", 0, 8000}, {"FA13", 0, 24000}, {"FA20", 0, 65535},
+                                {"FA50", 0, 255},  {"FA51", 0, 1023},  {"ACC", 1, 300}};
 // The control word takes commands, not numbers: run forward and reverse with Modbus priority,
 // stop, fault reset, nothing.
 const std::uint16_t kPumpCommands[] = {0xC400, 0xC600, 0xC000, 0xE000, 0x0000};
 // What clients read on the pump: the motor's values (they move while it ramps), the written
 // registers, the analog inputs the soak changes as an operator would, the fault history.
-const char* const kPumpReads[] = {"FD00", "FD01", "FE03", "FE05", "FC91", "FC90", "FE90", "FE02", "FE15", "FA00",
-                                  "FA01", "FA13", "FA20", "FA50", "FA51", "FE35", "FE36", "ACC",  "F803", "FE10",
-                                  "FE01"};
+const char* const kPumpReads[] = {"FD00", "FD01", "FE03", "FE05", "FC91", "FC90", "FE90",
+                                  "FE02", "FE15", "FA00", "FA01", "FA13", "FA20", "FA50",
+                                  "FA51", "FE35", "FE36", "ACC",  "F803", "FE10", "FE01"};
 
 // How the outcome of a client write bounds the copies of it in the drive's write log. Modbus
 // RTU carries no transaction id, so a write whose reply was spoiled is sent again and the drive
@@ -147,15 +147,15 @@ struct Tally {
     std::uint64_t snapshot_values_checked = 0;
     std::uint64_t snapshots = 0;
     std::uint64_t wrong_values = 0;
-    std::uint64_t unverifiable = 0;        // a value older than the history kept: not judged
+    std::uint64_t unverifiable = 0;  // a value older than the history kept: not judged
     std::uint64_t unexpected_exceptions = 0;
     std::uint64_t writes_ok = 0;
-    std::uint64_t writes_doubled = 0;      // acknowledged, applied more than once (retried)
-    std::uint64_t writes_unknown = 0;      // every attempt failed...
+    std::uint64_t writes_doubled = 0;          // acknowledged, applied more than once (retried)
+    std::uint64_t writes_unknown = 0;          // every attempt failed...
     std::uint64_t writes_unknown_applied = 0;  // ...and the drive had applied it all the same
-    std::uint64_t lost_writes = 0;         // batches whose log misses an acknowledged write
-    std::uint64_t foreign_writes = 0;      // batches whose log holds a write nobody asked for
-    std::uint64_t setup_writes = 0;        // drivebusd's own selector writes, seen in the log
+    std::uint64_t lost_writes = 0;             // batches whose log misses an acknowledged write
+    std::uint64_t foreign_writes = 0;          // batches whose log holds a write nobody asked for
+    std::uint64_t setup_writes = 0;            // drivebusd's own selector writes, seen in the log
     std::uint64_t fault_switches = 0;
 };
 
@@ -193,8 +193,8 @@ public:
         for (const char* name : kPumpReads) {
             track(kPump, name);
         }
-        for (const char* name : {"W400", "W401", "W450", "W451", "W452", "W453", "W454", "W455", "W456", "W457",
-                                 "W458", "W459"}) {
+        for (const char* name :
+             {"W400", "W401", "W450", "W451", "W452", "W453", "W454", "W455", "W456", "W457", "W458", "W459"}) {
             track(kFan, name);
         }
         if (echo) {
@@ -237,7 +237,9 @@ public:
 
     [[nodiscard]] std::string summary() const {
         const auto& c = engine_->status().counters;
-        const auto o = [&](Outcome k) { return tally_.outcomes.contains(k) ? tally_.outcomes.at(k) : std::uint64_t{0}; };
+        const auto o = [&](Outcome k) {
+            return tally_.outcomes.contains(k) ? tally_.outcomes.at(k) : std::uint64_t{0};
+        };
         std::ostringstream out;
         out << "soak seed=" << seed_ << " echo=" << (echo_ ? "on" : "off") << " transactions=" << tally_.transactions
             << " ok=" << o(Outcome::Ok) << " exception=" << o(Outcome::Exception) << " timeout=" << o(Outcome::Timeout)
@@ -361,8 +363,9 @@ private:
             ++tally_.wrong_values;
             if (tally_.wrong_values <= 10) {
                 ADD_FAILURE() << "seed " << seed_ << ": " << what << " of register 0x" << std::hex << reg << std::dec
-                              << " on drive " << int(address) << " gave " << value << ", the drive held " << expected.front()
-                              << " (line time " << std::chrono::duration<double>(time - kStart).count() << " s)"
+                              << " on drive " << int(address) << " gave " << value << ", the drive held "
+                              << expected.front() << " (line time "
+                              << std::chrono::duration<double>(time - kStart).count() << " s)"
                               << "\n faults in force: " << drives_.faults().to_string()
                               << (held_ ? ", deliveries held back" : "") << recent();
             }
@@ -399,8 +402,8 @@ private:
             << "seed " << seed_ << ": " << pending_.size() << " requests never answered";
         // A write answered while still on the wire (its echo differed) reaches the drive after
         // its answer: the write logs are read once the drives have had every request.
-        ASSERT_TRUE(line_->run_until_true(
-            [&] { return handled_count_ == engine_->status().counters.transmissions; }, 10s));
+        ASSERT_TRUE(
+            line_->run_until_true([&] { return handled_count_ == engine_->status().counters.transmissions; }, 10s));
     }
 
     template <typename T>
@@ -436,9 +439,8 @@ private:
         // Now and then a register the drive does not have (402, or 449 at the start of two):
         // the drive answers exception 2, and a value would be wrong.
         if (std::bernoulli_distribution(0.05)(rng_)) {
-            return std::bernoulli_distribution(0.5)(rng_)
-                       ? Pending{{kFan, rtu::ReadHoldingRegisters{402, 1}}, true}
-                       : Pending{{kFan, rtu::ReadHoldingRegisters{449, 2}}, true};
+            return std::bernoulli_distribution(0.5)(rng_) ? Pending{{kFan, rtu::ReadHoldingRegisters{402, 1}}, true}
+                                                          : Pending{{kFan, rtu::ReadHoldingRegisters{449, 2}}, true};
         }
         if (std::bernoulli_distribution(0.25)(rng_)) {
             const auto start = pick<std::uint16_t>(400, 401);
@@ -478,8 +480,7 @@ private:
         DoneWrite done{{}, r.outcome, r.attempts};
         if (const auto* one = std::get_if<rtu::WriteSingleRegister>(&p.request.pdu)) {
             done.words.emplace_back(one->address, one->value);
-            if (r.outcome == Outcome::Ok &&
-                std::get_if<rtu::WriteSingleRegisterResponse>(&*r.response) == nullptr) {
+            if (r.outcome == Outcome::Ok && std::get_if<rtu::WriteSingleRegisterResponse>(&*r.response) == nullptr) {
                 wrong_reply(address, "FC06");
             } else if (r.outcome == Outcome::Ok) {
                 const auto& echo = std::get<rtu::WriteSingleRegisterResponse>(*r.response);
@@ -511,7 +512,8 @@ private:
     void note_unexpected_exception(rtu::SlaveAddress address, const master::Result& r) {
         ++tally_.unexpected_exceptions;
         if (tally_.unexpected_exceptions <= 10) {
-            ADD_FAILURE() << "seed " << seed_ << ": drive " << int(address) << " answered a valid request with exception "
+            ADD_FAILURE() << "seed " << seed_ << ": drive " << int(address)
+                          << " answered a valid request with exception "
                           << static_cast<int>(r.exception().value_or(rtu::ExceptionCode{0}));
         }
     }
@@ -585,8 +587,8 @@ private:
         ++(lost ? tally_.lost_writes : tally_.foreign_writes);
         std::ostringstream asked;
         for (const auto& w : done) {
-            asked << "\n  " << master::to_string(w.outcome) << " after " << w.attempts << " attempt(s):"
-                  << describe(w.words);
+            asked << "\n  " << master::to_string(w.outcome) << " after " << w.attempts
+                  << " attempt(s):" << describe(w.words);
         }
         ADD_FAILURE() << "seed " << seed_ << ": drive " << int(address) << "'s write log does not match the writes ("
                       << (lost ? "an acknowledged write is missing" : "a write nobody asked for, or out of order")
@@ -661,8 +663,8 @@ private:
         case 1: f << "drop=" << pick(1, 10) / 10.0; break;
         case 2: {
             // 0.5 to 2.5 times the response time-out: before it, around it and well after.
-            const auto late = std::chrono::duration_cast<std::chrono::microseconds>(config_.response_timeout *
-                                                                                    (0.5 + 2.0 * u(rng_)));
+            const auto late =
+                std::chrono::duration_cast<std::chrono::microseconds>(config_.response_timeout * (0.5 + 2.0 * u(rng_)));
             f << "late=" << late.count() << "us";
             break;
         }
@@ -671,8 +673,7 @@ private:
             // allowance; combined, also past both (100 and 300 characters: 52 and 156 ms at
             // 19200 bit/s), which spoils the reply.
             static constexpr double kChars[] = {1.0, 2.0, 3.0, 5.0, 20.0, 100.0, 300.0};
-            f << "gap=" << pick(1, 8) << ':'
-              << kChars[pick<std::size_t>(0, std::size(kChars) - (combined_ ? 1 : 3))];
+            f << "gap=" << pick(1, 8) << ':' << kChars[pick<std::size_t>(0, std::size(kChars) - (combined_ ? 1 : 3))];
             break;
         }
         default: {
@@ -736,8 +737,7 @@ private:
     std::unique_ptr<VirtualLine> line_;
 
     std::map<rtu::SlaveAddress, std::vector<std::pair<std::uint16_t, std::string>>> tracked_;
-    std::map<std::pair<rtu::SlaveAddress, std::uint16_t>, std::deque<std::pair<rtu::Instant, std::uint16_t>>>
-        history_;
+    std::map<std::pair<rtu::SlaveAddress, std::uint16_t>, std::deque<std::pair<rtu::Instant, std::uint16_t>>> history_;
     std::map<rtu::SlaveAddress, std::vector<Word>> setup_;
     std::deque<Handled> frames_;  // the last requests the drives handled, oldest first
     std::map<std::uint64_t, Pending> pending_;

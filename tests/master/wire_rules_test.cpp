@@ -429,7 +429,8 @@ TEST_F(WireRules, ADriveWithEveryProbeShapeOwedNeverGivesAReadTheValuesOfTheRead
     std::size_t ok = 0;
     const auto read = [&](std::uint16_t start_at, std::uint16_t quantity) {
         results.clear();
-        EXPECT_TRUE(engine->submit({1, start_at, {2, rtu::ReadHoldingRegisters{start_at, quantity}}, false}).has_value());
+        EXPECT_TRUE(
+            engine->submit({1, start_at, {2, rtu::ReadHoldingRegisters{start_at, quantity}}, false}).has_value());
         EXPECT_TRUE(line->run_until_true([&] { return !results.empty(); }, 60s));
         const master::Result r = results.empty() ? master::Result{} : results.front().second;
         if (r.outcome == master::Outcome::Ok) {

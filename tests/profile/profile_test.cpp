@@ -232,7 +232,7 @@ TEST(Atv21, ReadIndirectBlock) {
     EXPECT_EQ(block->selectors, (std::vector<std::string>{"F875", "F876", "F877", "F878", "F879"}));
     ASSERT_TRUE(block->choices.contains(2));
     EXPECT_EQ(block->choices.at(2), "FD00");
-    EXPECT_FALSE(block->choices.contains(0));  // 0 is "no selection", not a register
+    EXPECT_FALSE(block->choices.contains(0));   // 0 is "no selection", not a register
     EXPECT_TRUE(block->selectors_after_reset);  // section 6: "Activation: Après réinitialisation"
 }
 
@@ -762,7 +762,6 @@ TEST(SearchPath, FileMustDeclareItsOwnType) {
         << p.error().message;
 }
 
-
 // ---- [control] ----
 
 TEST(Control, Atv21CommandWordsFromTheGuide) {
@@ -799,8 +798,8 @@ TEST(Control, Atv58HasNoCommandWords) {
 }
 
 TEST(Control, NamesTakeTheRegistersSpelling) {
-    const auto p = parse_profile(std::string(kValid) + "\n[control]\nlease_registers = [\"fa01\"]\nreference = \"fa01\"\n",
-                                 "test.toml");
+    const auto p = parse_profile(
+        std::string(kValid) + "\n[control]\nlease_registers = [\"fa01\"]\nreference = \"fa01\"\n", "test.toml");
     ASSERT_TRUE(p) << p.error().message;
     EXPECT_EQ(p->control->reference, "FA01");
     EXPECT_EQ(p->control->lease_registers.at(0), "FA01");

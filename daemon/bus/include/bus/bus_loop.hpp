@@ -92,8 +92,8 @@ private:
     LoopOptions options_;
     Handover handover_;
     sys::Seqlock<StatusCopy> status_;
-    log::Ring log_;       // the bus thread's log lines, written by the log's drain thread
-    sys::EventFd wake_;   // the bus thread's: a request is waiting, or stop
+    log::Ring log_;      // the bus thread's log lines, written by the log's drain thread
+    sys::EventFd wake_;  // the bus thread's: a request is waiting, or stop
     std::unique_ptr<Impl> impl_;
     std::thread thread_;
     std::atomic<std::uint64_t> heartbeat_{0};

@@ -162,10 +162,11 @@ struct BusCounters {
 
 // Every counter of BusCounters but `exceptions`, in its order (X(name) each): what the ipc side
 // copies into shm::BusCounters by name, so that the two structs cannot drift apart unseen.
-#define DRIVEBUS_MASTER_BUS_COUNTERS(X)                                                                               \
-    X(transmissions)                                                                                                  \
-    X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows) X(noise) X(foreign) X(malformed) \
-        X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections) X(line_down) X(late_replies) X(held_replies)  \
+#define DRIVEBUS_MASTER_BUS_COUNTERS(X)                                                                              \
+    X(transmissions)                                                                                                 \
+    X(replies)                                                                                                       \
+    X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows) X(noise) X(foreign) X(malformed)           \
+        X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections) X(line_down) X(late_replies) X(held_replies) \
             X(sync_probes)
 #define DRIVEBUS_MASTER_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) ==
