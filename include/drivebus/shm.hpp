@@ -162,11 +162,30 @@ struct BusCounters {
 
 // Every counter of BusCounters, in its order, for code that maps them by name (X(name) each):
 // drivebusd copies the bus thread's counters into it by name, drivebusctl names them.
-#define DRIVEBUS_SHM_BUS_COUNTERS(X)                                                                                  \
-    X(transmissions)                                                                                                  \
-    X(replies) X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows) X(noise) X(foreign) X(malformed) \
-        X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections) X(line_down) X(exceptions) X(requests_served) \
-            X(lease_expiries) X(late_replies) X(held_replies) X(sync_probes)
+// clang-format off: one counter a line (the formatter would wrap them differently each run)
+#define DRIVEBUS_SHM_BUS_COUNTERS(X) \
+    X(transmissions) \
+    X(replies) \
+    X(timeouts) \
+    X(crc_errors) \
+    X(gap_errors) \
+    X(parity_errors) \
+    X(overflows) \
+    X(noise) \
+    X(foreign) \
+    X(malformed) \
+    X(echo_mismatches) \
+    X(retries) \
+    X(broadcasts) \
+    X(queue_rejections) \
+    X(line_down) \
+    X(exceptions) \
+    X(requests_served) \
+    X(lease_expiries) \
+    X(late_replies) \
+    X(held_replies) \
+    X(sync_probes)
+// clang-format on
 #define DRIVEBUS_SHM_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) == sizeof(std::uint64_t) * (0 DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_SHM_COUNT_ONE)),
               "DRIVEBUS_SHM_BUS_COUNTERS must list every field of shm::BusCounters");

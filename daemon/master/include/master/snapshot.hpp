@@ -162,12 +162,27 @@ struct BusCounters {
 
 // Every counter of BusCounters but `exceptions`, in its order (X(name) each): what the ipc side
 // copies into shm::BusCounters by name, so that the two structs cannot drift apart unseen.
-#define DRIVEBUS_MASTER_BUS_COUNTERS(X)                                                                              \
-    X(transmissions)                                                                                                 \
-    X(replies)                                                                                                       \
-    X(timeouts) X(crc_errors) X(gap_errors) X(parity_errors) X(overflows) X(noise) X(foreign) X(malformed)           \
-        X(echo_mismatches) X(retries) X(broadcasts) X(queue_rejections) X(line_down) X(late_replies) X(held_replies) \
-            X(sync_probes)
+// clang-format off: one counter a line (the formatter would wrap them differently each run)
+#define DRIVEBUS_MASTER_BUS_COUNTERS(X) \
+    X(transmissions) \
+    X(replies) \
+    X(timeouts) \
+    X(crc_errors) \
+    X(gap_errors) \
+    X(parity_errors) \
+    X(overflows) \
+    X(noise) \
+    X(foreign) \
+    X(malformed) \
+    X(echo_mismatches) \
+    X(retries) \
+    X(broadcasts) \
+    X(queue_rejections) \
+    X(line_down) \
+    X(late_replies) \
+    X(held_replies) \
+    X(sync_probes)
+// clang-format on
 #define DRIVEBUS_MASTER_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) ==
                   sizeof(std::uint64_t) * (0 DRIVEBUS_MASTER_BUS_COUNTERS(DRIVEBUS_MASTER_COUNT_ONE)) +

@@ -20,8 +20,8 @@ namespace drivebus::sys {
 // groups this process happens to carry.
 [[nodiscard]] std::vector<std::string> groups_of_this_user();
 
-// Whether this user is in `group` (as groups_of_this_user() counts), or the process's
+// Whether this user is in group `name` (as groups_of_this_user() counts), or the process's
 // effective group is it.
-[[nodiscard]] bool user_in_group(const std::string& group);
+[[nodiscard]] bool user_in_group(const std::string& name);
 
 }  // namespace drivebus::sys
