@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The client side of the drivebusd benchmarks (bench/suite.cpp starts it): a separate process
 // on libdrivebus, as an application would be. Times are CLOCK_MONOTONIC nanoseconds, written
 // to stdout when the run is over (nothing is printed while measuring).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The floor under drivebus's shared-memory hop: a bare iceoryx publisher and a subscriber with
 // a Listener, in two processes, passing a sample the size of a drive snapshot. What it measures
 // is iceoryx's own cost on this machine (loan, publish, the notification, the Listener thread's

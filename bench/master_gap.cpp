@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How much silence drivebusd's bus thread leaves before each request beyond the t3.5 the
 // protocol requires, measured on the simulator's side of the pty: from the end of the last
 // character the simulator sent to the first byte of the next request. The bus is saturated

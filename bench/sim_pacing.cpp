@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How a paced drivebus-sim reply arrives at the master side of the pty: the spacing between
 // consecutive reply characters as the master reads them, against the character time of the
 // line (19200 8N1: 520.8 us). The master spins on non-blocking reads so that each character

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Percentiles of a sample set, for the benchmark tables.
 #pragma once
 

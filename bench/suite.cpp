@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The performance suite of docs/performance.md: drivebus measured as its users would meet it,
 // on pty loopback with drivebus-sim, and side by side with libmodbus. One table.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Small tools shared by the benchmark suite's items: processes, files, the clock, the table's
 // rows and the suite's options.
 #pragma once

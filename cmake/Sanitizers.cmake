@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # DRIVEBUS_SANITIZE: ASan + UBSan on everything built in this tree.
 if(DRIVEBUS_SANITIZE)
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Warning flags shared by every drivebus target.
 add_library(drivebus_warnings INTERFACE)
 target_compile_options(drivebus_warnings INTERFACE

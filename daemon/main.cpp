@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd: owns the RS485 lines, is the Modbus RTU master for the drives on them.
 //
 //   drivebusd --config FILE [--check-config] [--profile-dir DIR] [--verbose]

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // When received characters are taken to have arrived.
 //
 // On a pty a master's write arrives all at once. Paced, the simulator treats the bytes of a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "atv21.hpp"
 
 #include <algorithm>

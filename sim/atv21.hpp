@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A simulated Altivar 21, as its Modbus guide (1769688) describes it: indirect blocks at
 // 0x1875 (read) and 0x1870 (write), device identification, the control word FA00 driving a
 // motor whose output frequency ramps to the reference FA01, the status word FD01, faults with

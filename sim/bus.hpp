@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The simulated line as the drives see it: frames in, bytes out with the time each must reach
 // the master. Pure: the event loop feeds it frames and writes what it plans.
 #pragma once

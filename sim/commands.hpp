@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Commands of the control socket and the --fault / --option command-line arguments, applied
 // to a Bus. One line in, one line out.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The control socket: a Unix stream socket taking one command per line and answering one line
 // per command ("ok ..." or "error: ..."). See docs/simulator.md for the commands.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A simulated drive: answers the requests addressed to it as the real drive would and lets
 // time pass (ramps, time-outs). Pure: time is an argument, nothing here does I/O.
 #pragma once

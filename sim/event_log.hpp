@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // --tx-log and --rx-log: one text line per reply sent or request received, for benchmarks
 // that line the simulator's clock up against a master's or a client's (both CLOCK_MONOTONIC):
 //

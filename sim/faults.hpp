@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fault injection settings and what was injected. Settings are per drive address, with a
 // line-wide default that applies to drives without their own.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebus-sim: simulated Altivar drives on a pty (or a given tty), paced at the line's wire
 // speed, with fault injection. See docs/simulator.md.
 #include <sched.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The registers of one simulated drive, built from its profile: values plus the profile's
 // access and range, so that reads and writes fail the way the drive's documents say.
 #pragma once

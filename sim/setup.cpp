@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebus-sim's start-up: the drives of --drive and the line of --link or --device.
 #include "setup.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebus-sim's start-up: its options, the drives they name and the line it serves them on.
 #pragma once
 

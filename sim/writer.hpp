@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Writes planned bytes to the line at their times: a timerfd wakes the loop shortly before a
 // byte is due and the last stretch is busy-waited, so characters leave within microseconds of
 // their schedule and never before it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl's commands, on libdrivebus. Each returns the exit status; errors are reported
 // with report() (one line on stderr, and a JSON error on stdout with --json).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl's pure helpers: exit codes, durations, register values with units and scale.
 // Nothing here talks to drivebusd; tests/ctl/format_test.cpp covers it.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl --json values: nlohmann-json's ordered_json (keys keep their insertion order),
 // behind the few calls the commands use, and written on one line. A whole number stored as a
 // double is written as an integer ("30", not "30.0"); NaN and infinities as null; invalid

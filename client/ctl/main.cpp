@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl: looks at and commands the drives drivebusd runs (docs/drivebusctl.md).
 //
 //   drivebusctl [--bus NAME] [--json] [--timeout DURATION] [--profile-dir DIR] COMMAND ...

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl identify and scan: the drive's device identification (FC43/14), and which
 // addresses answer on the bus.
 #include <fmt/format.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What drivebusctl's commands share (commands.cpp, scan.cpp): an error made on the spot, a
 // failed step that carries its exit status out of the command, the bus connected or the
 // command ended.

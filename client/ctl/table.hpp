@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Plain-text tables: columns aligned, two spaces apart, the last column not padded.
 #pragma once
 

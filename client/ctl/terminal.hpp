@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The terminal for drivebusctl watch: keys one at a time without echo (stdin a tty), the
 // cursor hidden (stdout a tty), and SIGINT, SIGTERM and SIGHUP turned into a readable pipe.
 // Everything is restored when the Terminal goes, whichever way the command ends.

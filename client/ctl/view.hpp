@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What drivebusd publishes (bus status, drive snapshots), as drivebusctl shows it: text and
 // JSON. Pure: the time (CLOCK_MONOTONIC, as the payloads use) is an argument.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the views of drivebusctl share: times in milliseconds, joins, a register's profile
 // entry, the line in one phrase. Internal to drivebusctl_core.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl watch: every drive of the bus, refreshed in place until q, Ctrl-C or SIGTERM.
 #include <fmt/format.h>
 

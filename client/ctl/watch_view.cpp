@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl watch's screen and its JSON: the drives' key values, refreshed.
 #include <string>
 #include <vector>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebus::Bus, the handle applications hold: connecting (which bus, the runtime, the daemon
 // there), the bus's status, requests and broadcasts; the work is Bus::Impl's (bus.cpp).
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The state behind a Bus: iceoryx ports, the listener thread that takes samples and responses,
 // requests waiting for their response, and the tokens of the leases this Bus took. Nothing here
 // renews a lease on its own: only the application's writes and keep_alive() calls do.

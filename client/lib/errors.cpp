@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libdrivebus's errors: their kinds in words, Modbus exceptions by name, and a response from
 // drivebusd turned into the error it stands for.
 #include "bus_impl.hpp"

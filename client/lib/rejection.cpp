@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a rejection says, in one line: the reason, and what the drive's profile tells about the
 // register it names (drivebusd sends the reason and the register, not its own words).
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libdrivebus and the iceoryx runtime: drivebusd's RouDi reached or why not, in words a user can
 // act on (not running, which group to join, which effective group), the runtime started once
 // per process, and the buses drivebusd announces.

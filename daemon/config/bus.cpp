@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One [[bus]]: the line, its direction control, its timing, then its drives.
 #include <algorithm>
 #include <array>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // parse_config() and load_config(): the TOML text, [realtime], every [[bus]], and the checks
 // that span buses. The first error is the one reported.
 #include "config/config.hpp"

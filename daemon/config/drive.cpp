@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One [[bus.drive]]: its profile, its address and line checked against that profile, its polls.
 #include <algorithm>
 #include <limits>

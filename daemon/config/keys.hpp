@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The tables the configuration file is read by, one per section: each key with its TOML type,
 // its range, the field it fills and one line of doc. A section's table reads it and lists its
 // only keys (anything else is an unknown key); reference() shows the same tables, which is what

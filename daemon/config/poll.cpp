@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One [[bus.drive.poll]]: registers resolved against the drive's profile, period, and the
 // indirect read block's rules when the group goes through it.
 #include <algorithm>

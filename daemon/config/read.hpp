@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Readers of the configuration's tables, on top of the profile loader's strict TOML access
 // (profile/toml_reader.hpp): same one-line errors, same unknown-key check. Internal to daemon/config/.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // reference(): the configuration's tables (keys.hpp) as text, section by section.
 #include "config/reference.hpp"
 

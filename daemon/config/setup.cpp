@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The configuration of the indirect blocks drivebusd sets up (the read block follows the
 // drive's indirect poll, the write block its `write_block` key; master::block_setups() turns
 // them into selector writes), and the start-up warnings of a valid configuration.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Names, durations, choices and the profile cache shared by the configuration's readers.
 #include <algorithm>
 #include <array>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "ipc/lease_token.hpp"
 
 #include <sys/random.h>

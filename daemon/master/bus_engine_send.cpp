@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bus engine's sending side: what goes on the line next and when (the job, a sync probe
 // ahead of it when its reply could be taken for one still owed, the silences before it), and
 // what the engine learns as it leaves. Pure, as the rest of the engine.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scheduler's client side: per-client queues (writes and reads apart, served
 // round-robin) under the queue limit, and the lease fallbacks' slots, one per drive, ahead of
 // every client queue and outside the limit. Pure.

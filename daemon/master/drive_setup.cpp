@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scheduler's set-up side: the selectors of each drive's indirect blocks written and read
 // back, the read block confirmed (master/setup_plan), the drive unconfigured or awaiting a
 // reset until it holds, requests through a block refused until then, and the set-up run again

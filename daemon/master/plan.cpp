@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Read planning: what transactions a poll group needs within the drive's limits. Pure.
 #include <algorithm>
 

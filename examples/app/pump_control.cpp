@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An application on libdrivebus: runs an Altivar at a set frequency for a while, prints what
 // the drive reports as it ramps, then stops it with a ramp.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Altivar helpers with units, on top of a Drive: what the drive's profile says in its
 // [control] section (command word values, status bits, fault and alarm registers).
 //

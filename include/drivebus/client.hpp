@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libdrivebus: how an application reaches the drives that drivebusd runs.
 //
 //   auto bus = drivebus::Bus::connect("line1");

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Drive profiles: what a type of drive is, as data (profiles/*.toml).
 //
 // The daemon, the client library, the CLI and the simulator all read the same profiles.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The shared-memory contract between drivebusd and its clients: the payloads published and
 // exchanged through iceoryx. Every type here is fixed-size and trivially copyable (no
 // pointers, no heap) and starts with a version; a reader checks `version` and `size` before

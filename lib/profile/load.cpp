@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Profiles from files: by path, or by type name along the search path.
 #include <cstdint>
 #include <cstdlib>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // parse_profile(): the TOML text, its tables, then the checks that span tables.
 #include <algorithm>
 #include <limits>

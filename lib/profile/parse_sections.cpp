@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The profile's tables, one reader each: [drive], [functions], [identification],
 // [[register]], [[indirect_block]], [[fault_code]].
 #include "parse_sections.hpp"

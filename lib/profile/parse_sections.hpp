@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Readers of a profile's tables. Each checks what lies inside its own table; parse.cpp checks
 // what spans several (duplicates, names that blocks refer to). Internal to lib/profile/.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Register value conversions and profile look-ups.
 #include <algorithm>
 #include <cmath>

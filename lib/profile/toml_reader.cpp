@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Strict typed access to TOML tables, with one-line errors.
 #include "profile/toml_reader.hpp"
 

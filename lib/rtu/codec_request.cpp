@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Requests: validation and encoding (master), decoding (slave).
 #include <algorithm>
 #include <array>

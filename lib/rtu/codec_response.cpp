@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Responses: decoding and reply lengths (master), encoding (slave).
 #include "rtu/byte_reader.hpp"
 #include "rtu/codec.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libgpiod 1.6 C++ bindings (gpiod.hpp). They report failures by throwing std::system_error
 // (errno) or std::out_of_range; nothing leaves this file as an exception.
 #include <gpiod.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Built when libgpiod's C++ bindings were not found (Debian: libgpiod-dev).
 #include "serial/gpio_line.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "sys/posix.hpp"
 
 #include <unistd.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The documentation of the configuration file against the tables the reader reads it by
 // (config/reference.hpp): docs/configuration.md has a row for every key of each section, with
 // the reader's type, default and range, and drivebusd.toml(5) introduces every key under its

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd's configuration: the example files, the defaults, and one test per validation rule.
 // Profiles are the real ones, found along the default search path (the source tree), except
 // where a test needs a profile of its own.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl as a process against the whole stack (drivebus-sim with an ATV21 "pump" at 1 and
 // an ATV58 "fan" at 2, drivebusd with its embedded RouDi): what it prints, its exit status, and
 // what reached the simulated drives. Every test holds the ctest RESOURCE_LOCK "iceoryx".

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl's pure parts: values with units and scale, durations, register columns, exit
 // codes and rejection hints. No daemon.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusctl's JSON values (nlohmann-json underneath): escaping, numbers, order of keys; what it
 // writes reads back.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The tests read drivebusctl's --json documents with nlohmann-json, through the few calls they
 // use: a key or an item (throwing when absent), a string, a number, the item of an array with
 // a given key. Anything that is not JSON throws at parse().

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What drivebusctl makes of bus status and snapshots, and its tables: built by hand here,
 // no daemon.
 #include <gtest/gtest.h>

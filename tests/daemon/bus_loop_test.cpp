@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The master's bus thread on a real pty against drivebus-sim, with real time, real threads
 // and the simulator's fault injection. Every wait is a condition with a deadline.
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd as a program: --check-config on good and bad files. Every bad configuration is
 // one line naming the problem, and exit code 78; nothing is opened.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd's bus thread against a slave nobody here wrote: libmodbus's RTU server, on a pty
 // pair made by socat. Reads and writes must land.
 #include <gtest/gtest.h>

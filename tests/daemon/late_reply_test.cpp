@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd's bus thread on a real pty against drivebus-sim whose Altivar 21 answers late: a
 // share of the response time-out too late, every reply. The ATV21 reads one register per FC03,
 // so every read has the same shape and only the master's timing keeps replies apart. Whatever

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Real-time set-up: which mappings are locked how, read from /proc/PID/maps text, and the
 // locking itself in this process, with a large shared-memory file standing in for iceoryx's
 // management segment; the service thread's priority under the bus threads'.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Check that the iceoryx RouDi configuration, the units and the sysusers.d file agree.
 
 roudi.toml against iceoryx 2.0's parser: [general] version = 1, every [[segment]] with a

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The layers of docs/architecture.md, as the build sees them.
 
 Each library exports its own include directory, so a source file can include only the layers

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Check the man pages: each renders without a single groff warning, its .TH names the page
 of its file name, and, with --config-doc, drivebusd.toml(5) names every key of
 docs/configuration.md.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Build the .deb with cpack into a scratch directory and check it as dpkg sees it.
 
 - cpack -G DEB makes exactly drivebus_<version>_<arch>.deb;

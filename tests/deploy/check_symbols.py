@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """libdrivebus exports its public API and nothing else.
 
 Usage: check_symbols.py INCLUDE_DIR (LIBRARY | --symbols FILE)

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Apply a sysusers.d file with systemd-sysusers into a scratch root and check what it made:
 the groups drivebus, drivebusd and drivebus-control; the system user drivebus with primary
 group drivebus and shell nologin, a member of drivebusd and dialout and of nothing else of

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Static check of udev rules files against the udev(7) grammar of systemd 252.
 
 systemd 252 has no `udevadm verify` (it came in 253), so this checks what udev's rule parser

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Installs the build into a scratch prefix, then builds examples/app against it the way a user
 # would: find_package(drivebus) from the installed CMake package, and pkg-config.
 #   example_app.sh BUILD_DIR SOURCE_DIR SCRATCH_DIR

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """`systemd-analyze security --offline=yes` of a drivebus unit: fail above a maximum exposure,
 and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlock, the
 serial and GPIO devices, /tmp and /dev/shm for iceoryx), or what the RouDi of

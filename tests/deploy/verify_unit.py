@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """`systemd-analyze verify` of a drivebus unit, strictly.
 
 verify checks that ExecStart= names an executable, so the unit is copied into a scratch

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one duration grammar (lib/duration): what it takes, what it refuses and how it says so.
 #include "duration/duration.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: admission of a raw shm::Request, as a client could leave any bytes in the
 // request chunk. The bus has an Altivar 21 (address 1) and an Altivar 58 (address 2) with the
 // shipped profiles. Whatever the bytes, an admitted request goes to the drive it names, asks

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: drivebusd's configuration reader on arbitrary text, with the shipped profiles.
 // A refused file gets one line naming it; an accepted one holds what the reader promises
 // (docs/configuration.md): unique valid names, drive addresses inside their profile's range and

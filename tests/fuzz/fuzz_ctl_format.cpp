@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: drivebusctl's value, unit and duration parsing (client/ctl/format.*).
 // Input: [mode][register][text...]. Mode 0 parses a value for a register of the shipped
 // Altivar 21 profile or of a signed test register (chosen by the second byte; some choices give

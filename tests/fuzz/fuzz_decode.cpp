@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: both decoders and the reply-length logic on arbitrary bytes.
 // The first input byte picks the request the reply is decoded against.
 #include <algorithm>

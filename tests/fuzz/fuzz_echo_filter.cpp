@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the echo filter (master::EchoFilter) on arbitrary requests and reads.
 // Input: [setting] then records. [0][length][bytes...] sends a request (expect()); [1][k][length]
 // [bytes...] is one read: the next k bytes of the true echo (so that matching echoes are

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the framer fed arbitrary reads at arbitrary times. Input is a sequence of
 // records: [gap in 10 us units][flags][length][bytes...]. Checks that every character ends
 // up in exactly one frame or discarded frame, that emitted frames are well formed, and that a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the profile reader on arbitrary text. A refused profile gets one line naming
 // it; an accepted one is what every reader of profiles relies on: names and addresses unique
 // (look-ups find the register itself, in any case), min <= default <= max, and every raw value in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the simulator's control-socket commands (sim::run_command), and the
 // --fault / --option arguments, on arbitrary lines, against an Altivar 21 at address 1 and an
 // Altivar 58 at address 2. Input: lines as the socket splits them ('\n', a trailing '\r'

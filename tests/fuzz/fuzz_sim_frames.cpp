@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the simulator's line and drive models (sim::Bus::on_frame) on arbitrary
 // frames, an Altivar 21 at address 1 and an Altivar 58 at address 2 with the shipped profiles.
 // Input: records [flags][length][bytes...]; the target appends the CRC (the framer hands

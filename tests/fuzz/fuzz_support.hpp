@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the fuzz targets share: the shipped profiles, loaded once, and a check that stops the run
 // with a message when a property fails (libFuzzer then saves the input as a crash).
 #pragma once

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes the binary seed corpora of the fuzz targets (the text ones are written by hand):
 run it again after a change of layout or input format: python3 tests/fuzz/make_seeds.py
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bus thread allocates nothing per poll cycle: every heap allocation made on a thread
 // named "bus ..." is counted (operator new is replaced in this test program only), and after
 // a warm-up the count must not move over many poll cycles of two drives. Snapshots are taken

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every request gets exactly one answer (the intake's decisions and the real bus thread, no
 // RouDi): requests the intake refuses are answered at once, requests the bus refuses later
 // (bus down) come back through the results ring and are answered then, and the pending book

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A lease fallback on the real bus thread against the simulator: while the drive's replies are
 // spoiled it is retried (never answered as done); once a reply comes through it is answered
 // Ok; and when the drive falls silent it is given up once the drive is found absent.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A property test of the daemon's control integrity: random sequences of client requests (any
 // register, any block, any selector value, several clients honest and not, leases taken, taken
 // over, renewed, released and lost to a hung client; the drive switched off and on now and then)

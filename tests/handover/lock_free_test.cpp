@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bus thread shares no lock with the ipc thread by construction: what they share is the
 // hand-over (rings, eventfds, atomics, a seqlock). This reads the sources of everything on
 // that boundary and fails if one of them takes up a lock, so that a mutex cannot creep back

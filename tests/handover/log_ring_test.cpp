@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A real-time thread's log lines go into its own ring: a full ring refuses the line at once
 // (never waits) and counts it; the drain writes what is waiting and then says how many were
 // dropped.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The lock-free pieces between the bus thread and the threads below it: the SPSC ring (order,
 // a full ring, wrap-around, one producer and one consumer on two threads) and the seqlock (no
 // reader ever sees a half-written value).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebus-sim on a pty, seen from the master's side: replies, pacing, every fault injection,
 // the control socket and the command line.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test harness: drivebus-sim as a child process on a pty, and a minimal master on the other
 // side. Every wait is for a condition, with a deadline.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Who may watch and who may command, with real users: drivebusd runs as its own user, a
 // viewer is in the watch group only, an operator in the control group too. The shared memory
 // decides: the viewer gets no memory to write a request into, even with a program that asks

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libdrivebus's Altivar decoding, against the ATV21 guide's own example values.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A client program as a child process whose output the test reads as it runs (TEST_CLIENT_PATH
 // by default: the includer defines it).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The pure half of drivebusd's iceoryx side: what a request must pass before the wire
 // (admission), the control lease, and the payloads built from the master's state.
 #include <gtest/gtest.h>

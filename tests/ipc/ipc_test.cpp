@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd + drivebus-sim + clients, each its own process: snapshots reach every subscriber,
 // requests from several clients are all answered and applied in order, a client killed in the
 // middle of its requests disturbs nobody, and a control lease that runs out stops the drive.

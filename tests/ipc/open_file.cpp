@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Opens a file the way a hostile client would try a shared-memory segment, with open(2):
 //   open_file PATH rw|r
 // Prints "opened" (exit 0), or the errno's name, e.g. "EACCES" (exit 1).

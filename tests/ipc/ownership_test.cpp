@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The registers drivebusd relies on and the indirect blocks, against the running stack
 // (drivebus-sim, drivebusd, drivebusctl, each its own process): a client can neither rewrite a
 // selector of the read block (which made every later snapshot publish the output current as

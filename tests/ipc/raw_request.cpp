@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Asks iceoryx directly, without libdrivebus and its group check, for a request chunk on a
 // bus's request server and sends one write (pump's FA51 = VALUE):
 //   raw_request BUS VALUE

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The process soak: drivebusd and drivebus-sim on a pty, the simulator's faults switched at
 // random through its control socket, client processes reading FE35 (a value nobody writes) and
 // writing FA51 (no lease needed), one of them SIGKILLed in the middle, and a lease holder

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The whole stack in separate processes for a test: drivebus-sim on a pty (an ATV21 "pump" at
 // address 1 and an ATV58 "fan" at 2), drivebusd with its embedded RouDi on that pty, and the
 // bus's name for clients. iceoryx allows one RouDi per machine, so tests that build a Stack

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A client process for the multi-process tests, driven by its arguments:
 //
 //   test_client BUS snapshots N           print "snapshot SEQ FD00" for N new pump snapshots

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The master on a virtual line against simulated drives: polling, the t3.5 rule, the
 // indirect block, every simulator fault, absent drives, clients, broadcasts, keep-alive.
 #include <gtest/gtest.h>

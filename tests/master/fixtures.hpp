@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Bus plans for the master's tests, built in code from the real profiles.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The start-up check of what the polling asks of the line.
 #include "master/line_budget.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scheduler on a fake clock: read planning within drive limits, priorities, fairness,
 // absent drives and their back-off.
 #include "master/scheduler.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The set-up plan's decisions, fed by hand: what it asks, and what it concludes from each
 // answer: selectors written only when they differ, a reset awaited for selectors the drive
 // applies after one, and the read block confirmed only when its values can tell.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The truth-checked soak on the virtual line: the real BusEngine against the simulator's drives
 // (an Altivar 21 "pump" at address 1, an Altivar 58 "fan" at 2), with wire faults switched at
 // random and random client traffic. Every value a client gets and every valid value of every

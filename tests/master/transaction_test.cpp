@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The transaction state machine on a fake clock.
 #include "master/transaction.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A deterministic, virtual RS485 line: the master's BusEngine on one end, simulated drives
 // (the simulator's pure Bus) on the other, and a clock that jumps from event to event. No
 // threads, no sleeps, no ptys: every character's time is exact.

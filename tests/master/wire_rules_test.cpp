@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The master's wire rules when the kernel hands bytes over late and when drives answer late:
 // a reply held back is still the reply if it completes within its wire bound, a retry never
 // starts before a begun reply can have ended, bytes waiting to be read delay the write, and a

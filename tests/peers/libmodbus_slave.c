@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* An independent Modbus RTU slave for drivebusd's tests, built on libmodbus:
  *   libmodbus_slave DEVICE SLAVE_ID
  * Serves 100 holding registers, register i starting at 1000 + i, at 19200 8N1. On SIGTERM

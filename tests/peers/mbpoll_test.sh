@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # mbpoll, an independent Modbus RTU master (libmodbus), against drivebus-sim: an Altivar 21 at
 # address 1 and an Altivar 58 at address 2, 19200 8N1. Run through sim_harness.sh, which
 # provides SIM_LINK (the tty) and SIM_CONTROL (the control socket, reached with socat).

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """pymodbus, an independent Modbus RTU master, against drivebus-sim.
 
 An Altivar 21 at address 1 and an Altivar 58 at address 2, 19200 8N1. Run through

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # shellcheck disable=SC2317  # stop_sim, finish and show_sim_log run from the EXIT trap
 # Runs one peer (an independent Modbus master) against a fresh drivebus-sim.
 #

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The profile loader: the two real profiles and the manuals' facts in them, look-ups, value
 // conversions, the search path, and one test per validation rule.
 #include <gtest/gtest.h>

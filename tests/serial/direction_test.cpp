@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The direction-control methods, driven as the bus loop drives them, with a fake UART and a
 // recording GPIO line: when the driver is enabled and released relative to the write and to
 // the transmit tracker.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test doubles for the serial seams: a UART whose TIOCSERGETLSR answers are scripted and
 // whose RTS calls are recorded, and a GPIO line that records what it was set to.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The serial port on a pty pair (how every test line runs): exclusive open, raw termios
 // with PARMRK, the UUCP lock, error messages, and the low-latency tuning on a fake sysfs.
 #include <gtest/gtest.h>

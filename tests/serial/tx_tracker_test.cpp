@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The transmit tracker: computed wire times, TIOCSERGETLSR polling and the cap.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Altivar 21 model against the guide's worked examples and its documented behaviour.
 #include <gtest/gtest.h>
 

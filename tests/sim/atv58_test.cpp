@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Altivar 58 model: its manual's function limits and words.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The line logic: which frames get replies, when the reply's bytes are due, and each fault.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Control socket commands and the --fault / --option arguments.
 #include "commands.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test helpers: drives built from the real profiles, requests sent as frames.
 #pragma once
 

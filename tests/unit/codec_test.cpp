@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Codec behaviour beyond the seed frames: spec limits, typed errors, reply lengths.
 #include <gtest/gtest.h>
 

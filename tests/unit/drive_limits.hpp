@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Function limits of the two seed drives, as their manuals state them.
 #pragma once
 

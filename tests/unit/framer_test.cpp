@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Framer tests on synthetic clocks: each character's end time is computed from the line
 // format, so gaps are exact fractions of a character time.
 #include "rtu/framer.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test helper: frames written as the manuals print them ("01 03 FD 00 00 01 B5 A6").
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test helper: an error message is one line that starts with the file name and holds every one
 // of `parts`.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Property tests: arbitrary input never crashes or reads out of bounds (run under ASan+UBSan
 // too), and whatever decodes re-encodes to exactly the same bytes.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test helper: a fresh directory under GoogleTest's temp dir, named after the test and removed
 // when the test ends.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every example frame printed in the Altivar 21 Modbus guide and the Altivar 58 RS485 manual,
 // encoded and decoded from both ends of the line, with its CRC checked. Frames whose printed
 // CRC is wrong are errata (docs/errata.md): the tests pin the correct value and show the

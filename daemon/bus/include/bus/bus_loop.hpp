@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One bus, one thread, one event loop: the OS side of the master. It owns the serial port and
 // the direction control, turns fd and timer readiness into BusEngine events, writes what the
 // engine asks for, finds out when each request has left the wire, and reopens the port with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What runs on a bus's thread (bus_thread.cpp): its event loop, port, direction control and
 // engine. BusLoop (bus_loop.cpp) is the handle other threads hold: it starts and stops the
 // thread and shares with it only the rings, the wake-up eventfd and a few atomics.

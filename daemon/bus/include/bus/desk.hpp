@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bus thread's side of the hand-over: it takes client requests off the ring and gives
 // each to the engine or answers it at once (BusDown, QueueFull, UnknownDrive), hands every
 // result and snapshot back, and keeps the lease fallbacks: each in its drive's own slot,

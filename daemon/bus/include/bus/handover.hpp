@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the real-time bus thread and the ipc thread hand each other, and how: lock-free
 // single-producer single-consumer rings with preallocated slots, plus an eventfd that wakes
 // the ipc side. Nothing here blocks the bus thread, allocates on it, or takes a lock.

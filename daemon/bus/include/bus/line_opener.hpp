@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Opens a bus's port and its driver-enable control, and keeps the reopen back-off when that
 // fails or the line goes away (100 ms, doubling to 5 s). Runs on the bus thread: it logs
 // through the thread's log ring, rate-limited so that a missing adapter is one line a minute.

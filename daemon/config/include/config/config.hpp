@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd's configuration: parsed and validated once at start-up into this immutable
 // struct. Nothing is opened before it is valid. See docs/configuration.md.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The keys of drivebusd's configuration file, section by section, as the reader's own tables
 // state them: what docs/configuration.md and drivebusd.toml(5) describe, and what a test checks
 // them against.

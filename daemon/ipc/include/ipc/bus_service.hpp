@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One bus's face in shared memory, run by one ipc thread per bus: the intake (the request
 // server), the publisher (drive snapshots, bus status) and the lease policy. The ipc thread
 // owns all three alone, so none of them has a mutex; it meets the real-time bus thread only

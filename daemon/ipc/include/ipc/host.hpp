@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // drivebusd's place in iceoryx: finds or embeds RouDi, lays out the shared memory so that Unix
 // groups decide who may watch and who may send requests, and starts this process's runtime.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A bus's request server in shared memory: requests are taken off iceoryx's queue as soon as
 // they arrive (an iceoryx 2.0 server holds only four at a time), decided by the IntakeCore
 // (admission, leases, the one queue limit) and handed to the bus through its ring, or answered

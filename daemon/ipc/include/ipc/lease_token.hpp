@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where drivebusd's lease tokens come from: the kernel's CSPRNG, 128 bits per token. The lease
 // table itself stays pure and takes its tokens from whatever source it is given.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What iceoryx processes that did not stop cleanly leave behind in /tmp and /dev/shm.
 //
 // A RouDi that is killed leaves its lock, its socket and its segments; an embedded RouDi

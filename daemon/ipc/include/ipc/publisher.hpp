@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a bus publishes in shared memory: a snapshot per drive and the bus status. The one
 // owner of what subscribers see: each drive's published sequence (poll cycles and lease
 // changes alike), its last snapshot, and its health as the bus last reported it. Runs on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Payload segments written only by their writer group.
 //
 // iceoryx 2.0 (MePooSegment) creates each payload segment, /dev/shm/<writer group>, with an ACL

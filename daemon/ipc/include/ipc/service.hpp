@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // iceoryx service descriptions of a bus: ("drivebus", <bus>, <event>).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What drivebusd does with a client's request before anything reaches the wire: find the drive,
 // check the registers, quantities, values and function against the drive's profile, and build
 // the Modbus request. Pure: no iceoryx, no clock. A rejection names the reason and the register.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // From what the master knows to the shared-memory payloads. Pure.
 #pragma once
 

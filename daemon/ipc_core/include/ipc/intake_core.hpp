@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The intake's decisions, without iceoryx: a request taken from shared memory is admitted (or
 // rejected), checked against the leases, booked under the one queue limit and handed to the
 // bus, or answered at once; a result coming back from the bus frees its entry and becomes the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Control leases: the client that writes a drive's command or reference holds the drive's lease
 // and must renew it; another client is refused (unless it takes the lease over); a lease that
 // runs out gets the drive's fallback. Pure: time is an argument, and the secret tokens come

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the ipc side does about control leases, decided without doing it: the policy takes
 // events (a command write, a renewal, a release, time passing, a fallback's outcome) and
 // returns actions (answer with this, publish the drive's lease again, log this line, write

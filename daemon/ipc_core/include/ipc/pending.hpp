@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The requests the ipc side has handed to the bus and not yet answered, and the one queue
 // limit: a client request is booked only while fewer than `limit` are in flight, so the bus's
 // rings and queues, sized to the same limit, can never refuse one for room. Every booked

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The indirect blocks drivebusd sets up on a drive, and the selector writes that set them up.
 // drivebusd alone writes a block's selectors, so it alone knows what the block touches: the
 // scheduler sends these writes when the drive comes online, and admission checks every client

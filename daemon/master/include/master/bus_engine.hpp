@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The master side of one bus as a pure machine: bytes and times in, requests to write and
 // results out. It owns the framer, the echo filter, the transaction in flight and the
 // scheduler, and keeps the line rules: one transaction at a time; a request never starts

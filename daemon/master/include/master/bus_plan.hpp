@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the master runs on one bus: its drives, what it polls of each, its time-outs and retries.
 // The master's own description, plain values; the configuration fills it (BusPlan
 // is a BusPlan and the line's settings), tests and benchmarks build it directly.

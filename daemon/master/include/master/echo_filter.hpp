@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Local echo on 2-wire adapters: the receiver hears the master's own transmission. The filter
 // takes exactly the echoed request bytes off the received stream and checks them; a mismatch
 // is a bus collision.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A client request's outcome in fixed form: what the bus thread hands back to the ipc side for
 // every request it took, through the results ring. Pure (types and two conversions).
 #pragma once

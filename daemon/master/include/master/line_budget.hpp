@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the configured polling asks of the line, against what the line can carry. Pure.
 //
 // Every read is a request (8 bytes), a silence of t3.5, the reply (5 + 2 per register) and a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Which reply can be whose: the requests a slave has not yet been seen to answer.
 //
 // Modbus RTU has no transaction id, and a slave that answers after the master has given up on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a Modbus transaction came to, as the master reports it to the scheduler and clients.
 #pragma once
 

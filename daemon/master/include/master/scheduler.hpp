@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the bus sends next: client requests (writes first, fair between clients), the set-up a
 // drive needs, poll groups at their periods, keep-alives inside each drive's Modbus time-out,
 // and back-off probes of absent drives. Pure: time is an argument.

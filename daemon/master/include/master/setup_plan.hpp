@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How drivebusd sets a drive's indirect blocks up and makes sure the drive applies them.
 //
 // Each selector is read first and written only if it differs (the drive keeps them in EEPROM),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the master knows about a drive and a bus, handed to whoever publishes it.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One request until it has a result: attempts, the response timeout, retries.
 //
 // A pure state machine, driven by the bus loop's events. The timeout of each attempt runs

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one duration grammar of drivebus: the configuration file, drivebusctl's options and the
 // simulator's all take a number and a unit, the number whole or with a fraction, no sign:
 // "1500000ns", "250us", "100ms", "1.5s", "2min". A bare number is refused (is "30" seconds or

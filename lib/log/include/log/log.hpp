@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Logging for drivebusd: one line per message on stderr, with the syslog priority prefix
 // ("<4>") that journald reads when stderr is the journal, so levels survive without a
 // library; repeats of the same fault are rate-limited (logged once, then counted).

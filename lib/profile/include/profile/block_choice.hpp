@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Which code of an indirect block's selector picks a register: what the configuration checks
 // and what the master writes at set-up, from one place.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What limits exact framing on the kernel's side, as far as drivebusd can read it, for the log
 // at start-up: the master only sees bytes when the kernel delivers them, and a worker thread at
 // normal priority (flush_to_ldisc on the unbound workqueue) stands between the UART and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Locked memory for the real-time threads: what they run and touch (the daemon's code and
 // data, its heap and stacks, the chunks it publishes in) stays resident, so that the bus
 // thread never waits on a page fault; what it never touches is not locked just for being

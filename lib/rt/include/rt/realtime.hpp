@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Real-time set-up of the bus threads: SCHED_FIFO and CPU affinity (locked memory: memory.hpp).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Modbus RTU ADU encoding and decoding for both ends of the line.
 // Pure functions: bytes and values in, bytes, values or typed errors out.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // CRC16 of Modbus RTU: polynomial 0xA001 (reflected 0x8005), initial value 0xFFFF,
 // transmitted low byte first.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Read Device Identification (FC 43 / MEI 14) response body, shared by the response codec.
 #pragma once
 

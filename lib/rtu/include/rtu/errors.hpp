@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Typed errors of the codec. Every failure has a name; none is a bare bool or errno.
 #pragma once
 

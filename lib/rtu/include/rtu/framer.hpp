@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Turns timestamped received bytes into Modbus RTU frames, by the 1.5 / 3.5 character rules.
 //
 // Pure: it never reads, sleeps or asks the time. The caller feeds what one read() returned

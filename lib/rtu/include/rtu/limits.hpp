@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a slave accepts: the spec's limits narrowed by a drive's own (from its profile).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Undoes the termios PARMRK marking so that UART parity and framing errors reach the framer.
 //
 // With INPCK|PARMRK and neither IGNPAR nor ISTRIP, the line discipline delivers a character

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Modbus requests and responses as values: what the codec encodes and decodes.
 #pragma once
 

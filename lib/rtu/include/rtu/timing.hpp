@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Character timing of an asynchronous serial line and the Modbus RTU silences derived from it.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Vocabulary types of Modbus RTU: addresses, function and exception codes, the ADU buffer.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // RS485 driver-enable (direction) control. One small class per method:
 //   kernel: the UART driver switches RTS itself (TIOCSRS485), configured and read back;
 //   gpio:   a GPIO line through libgpiod, asserted before the first character and released

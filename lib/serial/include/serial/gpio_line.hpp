@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A GPIO line as the gpio direction method's OutputLine. libgpiod is linked into its own
 // small library (drivebus_gpio), so that it is the only code that needs the library; built
 // without libgpiod, opening a line fails with a message saying so.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The settings of the direction methods, as the configuration gives them: plain values, no
 // port, no system header, so that the configuration can hold them without the port code.
 #pragma once

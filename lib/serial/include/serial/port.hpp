@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The serial port a bus owns: opened non-blocking and exclusively, raw, with parity and
 // framing errors marked for the framer, tuned for low latency where the driver allows.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A pseudo-terminal pair standing in for a serial line: one program holds the master side,
 // another opens the slave side (/dev/pts/N) as if it were /dev/ttyS0.
 #pragma once

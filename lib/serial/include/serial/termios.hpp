@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Raw termios for a Modbus RTU line: the configured format, no processing of any kind, and
 // optionally INPCK|PARMRK so that characters received with parity or framing errors reach the
 // framer marked (see rtu/parmrk.hpp).

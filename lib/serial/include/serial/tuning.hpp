@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Low-latency tuning of a serial port where the driver offers it. Nothing here fails an open:
 // each step leaves one line for the log saying what was done or why not.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // When the last stop bit of a request has left the UART. The gpio and rts direction methods
 // release the driver then, and the master's response timeout starts then: a request of
 // 256 bytes is 133 ms on the wire at 19200 bit/s, so timing from write() would eat the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A non-blocking eventfd: one thread signals it, another wakes on it (through its EventLoop, or
 // poll) and drains it. The one way drivebusd's threads wake each other.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A minimal epoll loop: file descriptors with a callback each. Timers are timerfds with
 // absolute CLOCK_MONOTONIC deadlines (Timer below); signals arrive through a signalfd.
 #pragma once

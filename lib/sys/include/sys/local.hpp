@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Facts of this machine that the daemon, libdrivebus and the tests all ask: whether a local
 // socket answers (iceoryx's RouDi listens on /tmp/roudi), and the groups of this user.
 #pragma once

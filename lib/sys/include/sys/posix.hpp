@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every system call whose result the code acts on goes through posix_call(): EINTR is retried,
 // a failure becomes a typed error that keeps errno and names the call. Called directly, on
 // purpose, and nowhere else:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The latest value of a trivially copyable struct, written by one thread and read by any:
 // the writer never waits (a reader that overlapped a write reads again), and no reader can
 // delay the writer. Used for what the real-time bus thread shows other threads (its status).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A fixed-capacity, lock-free ring for one producer thread and one consumer thread: how the
 // real-time bus thread and the threads below it hand data over without waiting on each other.
 // Slots are allocated once, at construction; push and pop copy a trivially copyable entry and
