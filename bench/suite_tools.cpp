@@ -52,12 +52,34 @@ std::string slurp(const fs::path& path) {
     return s.str();
 }
 
+// The scratch folders of this run, removed when it ends (DRIVEBUS_BENCH_KEEP=1 keeps them, with
+// the programs' logs, to look into a failure).
+struct Scratch {
+    std::vector<fs::path> dirs;
+    Scratch() = default;
+    Scratch(const Scratch&) = delete;
+    Scratch& operator=(const Scratch&) = delete;
+    Scratch(Scratch&&) = delete;
+    Scratch& operator=(Scratch&&) = delete;
+    ~Scratch() {
+        if (std::getenv("DRIVEBUS_BENCH_KEEP") != nullptr) {
+            return;
+        }
+        for (const auto& dir : dirs) {
+            std::error_code ec;
+            fs::remove_all(dir, ec);
+        }
+    }
+};
+
 fs::path fresh_dir(const std::string& what) {
     static int counter = 0;
+    static Scratch scratch;
     const fs::path dir =
         fs::temp_directory_path() / fmt::format("drivebus-bench-{}-{}-{}", ::getpid(), counter++, what);
     fs::remove_all(dir);
     fs::create_directories(dir);
+    scratch.dirs.push_back(dir);
     return dir;
 }
 

@@ -37,11 +37,52 @@ void run_or_throw(const std::vector<std::string>& argv) {
     }
 }
 
+// The users and groups this process created, removed again when its test ends: a machine the
+// suite ran on keeps no dbt-* account. Those that existed before are left alone.
+std::vector<std::string> created_users;
+std::vector<std::string> created_groups;
+
 void ensure_group(const char* name) {
     if (::getgrnam(name) == nullptr) {
         run_or_throw({"/usr/sbin/groupadd", "--system", name});
+        created_groups.emplace_back(name);
     }
 }
+
+// Removes them; what is still there afterwards (a failure to report).
+std::vector<std::string> remove_created() {
+    std::vector<std::string> left;
+    for (auto it = created_users.rbegin(); it != created_users.rend(); ++it) {
+        const auto [status, out] = run_program({"/usr/sbin/userdel", *it});
+        if (::getpwnam(it->c_str()) != nullptr) {
+            left.push_back("user " + *it + ": " + out);
+        }
+    }
+    for (auto it = created_groups.rbegin(); it != created_groups.rend(); ++it) {
+        // userdel may have taken the group already (a group named like the user).
+        const auto [status, out] = run_program({"/usr/sbin/groupdel", *it});
+        if (::getgrnam(it->c_str()) != nullptr) {
+            left.push_back("group " + *it + ": " + out);
+        }
+    }
+    created_users.clear();
+    created_groups.clear();
+    return left;
+}
+
+// Removes them when a test ends, however it ends.
+struct RemoveCreated {
+    RemoveCreated() = default;
+    RemoveCreated(const RemoveCreated&) = delete;
+    RemoveCreated& operator=(const RemoveCreated&) = delete;
+    RemoveCreated(RemoveCreated&&) = delete;
+    RemoveCreated& operator=(RemoveCreated&&) = delete;
+    ~RemoveCreated() {
+        for (const auto& left : remove_created()) {
+            ADD_FAILURE() << "not removed: " << left;
+        }
+    }
+};
 
 // Every user's primary group is the watch group: iceoryx's RouDi answers a process through a
 // socket made with the process's effective group, so it must be RouDi's.
@@ -54,6 +95,7 @@ void ensure_user(const char* name, const std::string& extra_groups) {
         }
         argv.emplace_back(name);
         run_or_throw(argv);
+        created_users.emplace_back(name);
     }
 }
 
@@ -143,6 +185,9 @@ protected:
         sim_.reset();
         std::error_code ec;
         fs::remove_all(dir_, ec);
+        for (const auto& left : remove_created()) {
+            ADD_FAILURE() << "not removed: " << left;
+        }
     }
 
     std::pair<int, std::string> client(const char* user, std::vector<std::string> args) {
@@ -273,6 +318,7 @@ TEST_F(Access, AnOperatorWatchesAndCommands) {
 // sticky /tmp and /dev/shm, where drivebusd's user may not replace them. drivebusd says in
 // one line what to remove, instead of iceoryx's raw error.
 TEST(StaleRouDi, TheDaemonSaysWhatToRemove) {
+    const RemoveCreated remove_at_end;
     if (::geteuid() != 0) {
         GTEST_SKIP() << "needs root to leave root's files and run drivebusd as another user";
     }
