@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "bus/bus_loop.hpp"
+#include "bus/line_opener.hpp"
 #include "config/config.hpp"
 #include "drivebus/version.hpp"
 #include "ipc/bus_service.hpp"
@@ -129,6 +130,12 @@ int run_main(int argc, char** argv) {
     for (const auto& bus : config->buses) {
         for (const auto& line : master::line_budget_warnings(bus)) {
             log::warning(line);
+        }
+    }
+    for (const auto& bus : config->buses) {
+        if (auto usable = bus::check_line(bus); !usable) {
+            log::error(usable.error());
+            return kExitConfig;
         }
     }
     if (check_only) {

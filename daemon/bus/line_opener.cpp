@@ -2,6 +2,7 @@
 #include "bus/line_opener.hpp"
 
 #include <algorithm>
+#include <filesystem>
 
 #include "serial/termios.hpp"
 
@@ -16,7 +17,7 @@ std::optional<LineOpener::Line> LineOpener::open(rtu::Instant now) {
         failed(port.error().message, port.error().device_gone(), now);
         return std::nullopt;
     }
-    auto direction = make_direction(port->fd());
+    auto direction = make_direction(bus_, port->fd(), uart_);
     if (!direction) {
         failed(direction.error().message, false, now);
         return std::nullopt;
@@ -39,25 +40,50 @@ void LineOpener::failed(const std::string& why, bool gone, rtu::Instant now) {
                    "bus " + bus_.name + ": " + why + (gone ? "; bus down, retrying" : "; retrying"));
 }
 
-std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> LineOpener::make_direction(int fd) {
-    switch (bus_.direction) {
+std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_direction(const config::BusConfig& bus,
+                                                                                         int fd,
+                                                                                         serial::UartControl& uart) {
+    switch (bus.direction) {
     case config::DirectionMode::Kernel: {
-        auto kernel = serial::make_kernel_direction(fd, bus_.kernel);
-        if (kernel || !bus_.kernel_fallback) {
+        auto kernel = serial::make_kernel_direction(fd, bus.kernel);
+        if (kernel || !bus.kernel_fallback) {
             return kernel;
         }
-        log::warning("bus " + bus_.name + ": " + kernel.error().message + "; falling back to " +
-                     std::string(config::to_string(*bus_.kernel_fallback)));
-        if (*bus_.kernel_fallback == config::DirectionMode::Rts) {
-            return serial::make_rts_direction(fd, uart_);
+        log::warning("bus " + bus.name + ": " + kernel.error().message + "; falling back to " +
+                     std::string(config::to_string(*bus.kernel_fallback)));
+        if (*bus.kernel_fallback == config::DirectionMode::Rts) {
+            return serial::make_rts_direction(fd, uart);
         }
         return serial::make_no_direction();
     }
-    case config::DirectionMode::Gpio: return serial::make_gpio_direction(*bus_.gpio);
-    case config::DirectionMode::Rts: return serial::make_rts_direction(fd, uart_);
+    case config::DirectionMode::Gpio: return serial::make_gpio_direction(*bus.gpio);
+    case config::DirectionMode::Rts: return serial::make_rts_direction(fd, uart);
     case config::DirectionMode::None: return serial::make_no_direction();
     }
     return serial::make_no_direction();
+}
+
+std::expected<void, std::string> check_line(const config::BusConfig& bus) {
+    if (bus.direction == config::DirectionMode::Kernel && bus.kernel_fallback) {
+        return {};  // a driver without RS485 support falls back: nothing permanent to find
+    }
+    std::error_code ec;
+    if (!std::filesystem::exists(bus.device, ec)) {
+        return {};
+    }
+    auto port = serial::Port::open({bus.device, bus.format, bus.lock_dir});
+    if (!port) {
+        return {};  // busy, or gone again: the bus thread retries
+    }
+    const auto uart = serial::kernel_uart_control();
+    auto direction = make_direction(bus, port->fd(), *uart);
+    if (!direction && direction.error().permanent) {
+        return std::unexpected("bus " + bus.name + ": " + direction.error().message +
+                               (bus.direction == config::DirectionMode::Kernel && !bus.kernel_fallback
+                                    ? "; set kernel_fallback = \"rts\" or \"none\", or another direction"
+                                    : ""));
+    }
+    return {};
 }
 
 }  // namespace drivebus::bus

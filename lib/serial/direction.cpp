@@ -144,7 +144,8 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
     const auto failed = [&](const char* call, int error) {
         const std::string why = std::string(call) + ": " + std::strerror(error);
         if (error == ENOTTY || error == EINVAL || error == kENOIOCTLCMD) {
-            return std::unexpected(DirectionError{device_of(fd) + ": the driver has no RS485 support (" + why + ")"});
+            return std::unexpected(
+                DirectionError{device_of(fd) + ": the driver has no RS485 support (" + why + ")", true});
         }
         return std::unexpected(DirectionError{device_of(fd) + ": kernel RS485 (" + why + ")"});
     };
@@ -171,7 +172,8 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
         return failed("TIOCGRS485", read.error().error);
     }
     if (auto changed = rs485_differences(wanted, got); !changed.empty()) {
-        return std::unexpected(DirectionError{device_of(fd) + ": the driver changed the RS485 settings: " + changed});
+        return std::unexpected(
+            DirectionError{device_of(fd) + ": the driver changed the RS485 settings: " + changed, true});
     }
     return std::make_unique<KernelDirection>();
 }
@@ -179,7 +181,7 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
 std::expected<std::unique_ptr<Direction>, DirectionError> make_gpio_direction(const GpioOptions& options) {
     if (gpio_chips().empty()) {
         return std::unexpected(
-            DirectionError{describe(options) + ": no such GPIO chip (no /dev/gpiochip* on this machine)"});
+            DirectionError{describe(options) + ": no such GPIO chip (no /dev/gpiochip* on this machine)", true});
     }
     auto line = open_gpio_line(options);
     if (!line) {

@@ -60,8 +60,8 @@ std::string chip_list(const std::vector<std::string>& chips) {
 }  // namespace
 
 std::expected<std::unique_ptr<OutputLine>, DirectionError> open_gpio_line(const GpioOptions& options) {
-    const auto fail = [&](const std::string& what) {
-        return std::unexpected(DirectionError{describe(options) + ": " + what});
+    const auto fail = [&](const std::string& what, bool permanent = false) {
+        return std::unexpected(DirectionError{describe(options) + ": " + what, permanent});
     };
     gpiod::chip chip;
     try {
@@ -71,7 +71,8 @@ std::expected<std::unique_ptr<OutputLine>, DirectionError> open_gpio_line(const 
         if (e.code().value() == ENOENT || e.code().value() == ENODEV) {
             const auto chips = gpio_chips();
             return fail(chips.empty() ? std::string("no such GPIO chip (no /dev/gpiochip* on this machine)")
-                                      : "no such GPIO chip (there are " + chip_list(chips) + ")");
+                                      : "no such GPIO chip (there are " + chip_list(chips) + ")",
+                        true);
         }
         return fail(std::string("cannot open the chip: ") + e.code().message());
     } catch (const std::exception& e) {
@@ -79,7 +80,8 @@ std::expected<std::unique_ptr<OutputLine>, DirectionError> open_gpio_line(const 
     }
     if (options.line >= chip.num_lines()) {
         return fail("no such line (" + chip.name() + " \"" + chip.label() + "\" has " +
-                    std::to_string(chip.num_lines()) + " lines)");
+                        std::to_string(chip.num_lines()) + " lines)",
+                    true);
     }
     try {
         gpiod::line line = chip.get_line(options.line);

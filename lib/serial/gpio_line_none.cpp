@@ -5,7 +5,7 @@
 namespace drivebus::serial {
 
 std::expected<std::unique_ptr<OutputLine>, DirectionError> open_gpio_line(const GpioOptions& options) {
-    return std::unexpected(DirectionError{describe(options) + ": drivebusd was built without libgpiod"});
+    return std::unexpected(DirectionError{describe(options) + ": drivebusd was built without libgpiod", true});
 }
 
 }  // namespace drivebus::serial

@@ -130,6 +130,46 @@ TEST_F(DrivebusdCli, BadConfigurationsAreOneLineAndExit78) {
     }
 }
 
+// What the configuration asks of the line that this machine has not (a driver without RS485
+// support and no fallback, a GPIO chip that does not exist) cannot be cured by retrying: when the
+// device is there, --check-config finds it and drivebusd exits 78 at start with one line,
+// instead of saying READY and retrying for ever. A pty has no RS485 support.
+TEST_F(DrivebusdCli, APermanentLineMisconfigurationIsOneLineAndExit78) {
+    SimProcess sim({"--drive", "1:atv21"});
+    const std::string device = sim.link().string();
+    const std::string on_the_pty = with("/dev/ttyDOESNOTEXIST", device);
+    const auto swap = [&](std::string_view from, std::string_view to) {
+        std::string text = on_the_pty;
+        text.replace(text.find(from), from.size(), to);
+        return text;
+    };
+    const std::vector<std::pair<std::string, std::string>> cases{
+        {swap("parity = \"none\"", "parity = \"none\"\ndirection = \"kernel\""), "no RS485 support"},
+        {swap("parity = \"none\"",
+              "parity = \"none\"\ndirection = \"gpio\"\ngpio_chip = \"drivebus-no-such-chip\"\ngpio_line = 3"),
+         "no such GPIO chip"},
+    };
+    for (const auto& [text, says] : cases) {
+        const auto [checked, check_out] = check(text);
+        EXPECT_EQ(checked, 78) << text << "\nprinted: " << check_out;
+        EXPECT_NE(check_out.find(says), std::string::npos) << check_out;
+        EXPECT_EQ(std::count(check_out.begin(), check_out.end(), '\n'), 1) << "not one line: " << check_out;
+
+        std::ofstream(dir / "run.toml") << text;
+        const auto [started, start_out] = run_program({DRIVEBUSD_PATH, "--config", (dir / "run.toml").string()});
+        EXPECT_EQ(started, 78) << start_out;
+        EXPECT_NE(start_out.find(says), std::string::npos) << start_out;
+        EXPECT_EQ(start_out.find("READY"), std::string::npos) << start_out;
+    }
+    // With a fallback, a driver without RS485 support is no configuration error.
+    const auto [fell_back, fallback_out] =
+        check(swap("parity = \"none\"", "parity = \"none\"\ndirection = \"kernel\"\nkernel_fallback = \"none\""));
+    EXPECT_EQ(fell_back, 0) << fallback_out;
+    // Nor is a device that is not there yet: the daemon waits for it.
+    const auto [absent, absent_out] = check(with("parity = \"none\"", "parity = \"none\"\ndirection = \"kernel\""));
+    EXPECT_EQ(absent, 0) << absent_out;
+}
+
 TEST_F(DrivebusdCli, MissingFileAndBadArguments) {
     const auto [status, out] =
         run_program({DRIVEBUSD_PATH, "--config", (dir / "nope.toml").string(), "--check-config"});

@@ -15,6 +15,19 @@
 
 namespace drivebus::bus {
 
+// The bus's driver-enable control on the open port `fd`: its direction method, or for
+// "kernel" with a kernel_fallback, the fallback when the driver has no RS485 support.
+[[nodiscard]] std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_direction(
+    const config::BusConfig& bus, int fd, serial::UartControl& uart);
+
+// What can be known of the line before the bus thread starts. When its device is there, the
+// port is opened and its direction control made once, then both released. A permanent refusal
+// (a driver without RS485 support and no kernel_fallback, a GPIO chip or line that does not
+// exist) is the configuration's: its one line, for drivebusd to exit 78 rather than retry for
+// ever. A device that is not there yet (an adapter not plugged in), or busy, is left to the
+// bus thread, which waits for it.
+[[nodiscard]] std::expected<void, std::string> check_line(const config::BusConfig& bus);
+
 class LineOpener {
 public:
     struct Line {
@@ -33,8 +46,6 @@ public:
     [[nodiscard]] std::optional<rtu::Instant> next_try() const noexcept { return reopen_at_; }
 
 private:
-    [[nodiscard]] std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_direction(int fd);
-
     const config::BusConfig& bus_;
     serial::UartControl& uart_;
     rtu::Duration reopen_delay_{};

@@ -31,6 +31,10 @@ struct DirectionEdge {
 
 struct DirectionError {
     std::string message;  // one line: "gpio /dev/gpiochip0 line 17: No such file or directory"
+    // Whether trying again can help: not for a driver without RS485 support, a GPIO chip or line
+    // that does not exist, or a build without libgpiod (the configuration asks for what this
+    // machine has not); yes for a line in use or an I/O error.
+    bool permanent = false;
 };
 
 class Direction {
