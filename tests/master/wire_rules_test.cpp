@@ -438,7 +438,8 @@ TEST_F(WireRules, ADriveWithEveryProbeShapeOwedNeverGivesAReadTheValuesOfTheRead
             ++ok;
             const auto words = std::get<rtu::ReadHoldingRegistersResponse>(*r.response).values.words();
             for (std::size_t i = 0; i < words.size(); ++i) {
-                if (words[i] != 4500 + (start_at - 450) + i) {
+                const auto held = static_cast<std::uint16_t>(4500U + (start_at - 450U) + i);  // the fan's W4xx
+                if (words[i] != held) {
                     ++wrong;
                     ADD_FAILURE() << "a read of " << quantity << " from W" << start_at << " gave " << words[i]
                                   << " for W" << start_at + i;
