@@ -7,6 +7,8 @@
 #include <array>
 #include <fstream>
 #include <map>
+#include <span>
+#include <sstream>
 #include <system_error>
 
 #include "drivebus/shm.hpp"
@@ -37,29 +39,47 @@ ConfigError syntax_error(std::string_view source, const toml::parse_error& e) {
     return ConfigError{std::move(line)};
 }
 
-void read_buses(detail::Section& root, detail::Errors& errors, const LoadOptions& options, Config& config) {
-    const auto tables = root.tables("bus");
-    if (tables.empty() && !errors.any()) {
-        errors.add("", "no [[bus]]: drivebusd needs at least one bus");
-        return;
-    }
+// One file's [[bus]] tables, read into `config` with that file's errors.
+struct BusSource {
+    detail::Section* root;
+    detail::Errors* errors;
+};
+
+// toml++ prints a table the same way whatever file or place it came from: the bus's settings
+// as written, for a reload to tell which buses changed.
+std::string settings_text(const toml::table& table) {
+    std::ostringstream out;
+    out << toml::toml_formatter(table);
+    return out.str();
+}
+
+void read_buses(std::span<const BusSource> sources, const LoadOptions& options, Config& config) {
     detail::ProfileCache profiles(options);
     detail::DriveNames drive_names;
     std::map<std::string, std::string> names;  // bus name -> itself, for the message
     std::map<fs::path, std::string> devices;   // device -> bus name
-    for (std::size_t i = 0; i < tables.size(); ++i) {
-        auto bus = detail::read_bus(*tables[i], i, errors, profiles, drive_names);
-        const auto where = bus.name.empty() ? detail::entry_name("bus", i) : "bus " + detail::in_quotes(bus.name);
-        if (!bus.name.empty() && !names.emplace(bus.name, bus.name).second) {
-            errors.add(where, "name " + detail::in_quotes(bus.name) + " is already another bus");
-        }
-        if (!bus.device.empty()) {
-            if (const auto [it, fresh] = devices.emplace(bus.device, bus.name); !fresh) {
-                errors.add(where, "device " + detail::in_quotes(bus.device.string()) + " is already bus " +
-                                      detail::in_quotes(it->second));
+    std::size_t index = 0;
+    for (const auto& source : sources) {
+        auto& errors = *source.errors;
+        for (const auto* table : source.root->tables("bus")) {
+            auto bus = detail::read_bus(*table, index++, errors, profiles, drive_names);
+            const auto where =
+                bus.name.empty() ? detail::entry_name("bus", index - 1) : "bus " + detail::in_quotes(bus.name);
+            if (!bus.name.empty() && !names.emplace(bus.name, bus.name).second) {
+                errors.add(where, "name " + detail::in_quotes(bus.name) + " is already another bus");
             }
+            if (!bus.device.empty()) {
+                if (const auto [it, fresh] = devices.emplace(bus.device, bus.name); !fresh) {
+                    errors.add(where, "device " + detail::in_quotes(bus.device.string()) + " is already bus " +
+                                          detail::in_quotes(it->second));
+                }
+            }
+            bus.settings = settings_text(*table);
+            config.buses.push_back(std::move(bus));
         }
-        config.buses.push_back(std::move(bus));
+    }
+    if (index == 0 && !sources.front().errors->any()) {
+        sources.front().errors->add("", "no [[bus]]: drivebusd needs at least one bus");
     }
 }
 
@@ -165,30 +185,63 @@ std::vector<SectionReference> top_reference() {
 
 }  // namespace detail
 
-std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
-                                                const LoadOptions& options) {
-    toml::table root;
-    try {
-        root = toml::parse(text, std::string(source));
-    } catch (const toml::parse_error& e) {
-        return std::unexpected(syntax_error(source, e));
+std::expected<Config, ConfigError> parse_config(std::span<const ConfigText> files, const LoadOptions& options) {
+    if (files.empty()) {
+        return fail("no configuration file");
     }
-    detail::Errors errors(source);
-    detail::Section s(root, "", errors);
-    s.allow_only({"realtime", "ipc", "bus"});
+    // Every file is parsed before any is read, so that a syntax error anywhere is the error.
+    std::vector<toml::table> roots(files.size());
+    for (std::size_t i = 0; i < files.size(); ++i) {
+        try {
+            roots[i] = toml::parse(files[i].text, files[i].source);
+        } catch (const toml::parse_error& e) {
+            return std::unexpected(syntax_error(files[i].source, e));
+        }
+    }
+    // One Errors per file, so that a problem is named in the file where it is.
+    std::vector<detail::Errors> errors;
+    std::vector<detail::Section> sections;
+    errors.reserve(files.size());
+    sections.reserve(files.size());
+    for (std::size_t i = 0; i < files.size(); ++i) {
+        errors.emplace_back(files[i].source);
+        sections.emplace_back(roots[i], "", errors[i]);
+    }
     Config config;
-    config.source = fs::path(source);
-    if (const auto* realtime = s.table("realtime")) {
-        config.realtime = detail::read_realtime(*realtime, errors);
+    config.source = fs::path(files.front().source);
+    sections.front().allow_only({"realtime", "ipc", "bus"});
+    if (const auto* realtime = sections.front().table("realtime")) {
+        config.realtime = detail::read_realtime(*realtime, errors.front());
     }
-    if (const auto* ipc = s.table("ipc")) {
-        config.ipc = detail::read_ipc(*ipc, errors);
+    if (const auto* ipc = sections.front().table("ipc")) {
+        config.ipc = detail::read_ipc(*ipc, errors.front());
     }
-    read_buses(s, errors, options, config);
-    if (errors.any()) {
-        return std::unexpected(ConfigError{errors.error().message});
+    std::vector<BusSource> sources;
+    for (std::size_t i = 0; i < files.size(); ++i) {
+        if (i > 0) {
+            // [realtime] and [ipc] concern the whole daemon: one place, the main file.
+            sections[i].allow_only({"bus"});
+            config.fragments.emplace_back(files[i].source);
+        }
+        sources.push_back({&sections[i], &errors[i]});
+    }
+    read_buses(sources, options, config);
+    for (const auto& e : errors) {
+        if (e.any()) {
+            return std::unexpected(ConfigError{e.error().message});
+        }
     }
     return config;
+}
+
+std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
+                                                const LoadOptions& options) {
+    const std::array files = {ConfigText{std::string(source), std::string(text)}};
+    return parse_config(files, options);
+}
+
+fs::path fragment_directory(const fs::path& file) {
+    return file.parent_path() / (file.stem().string() + ".d");
 }
 
 std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadOptions& options) {
@@ -196,7 +249,30 @@ std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadO
     if (!text) {
         return fail(text.error());
     }
-    return parse_config(*text, file.string(), options);
+    std::vector<ConfigText> files{{file.string(), std::move(*text)}};
+    const auto dir = fragment_directory(file);
+    std::error_code ec;
+    if (fs::is_directory(dir, ec)) {
+        std::vector<fs::path> fragments;
+        for (const auto& entry : fs::directory_iterator(dir, ec)) {
+            // Only *.toml: an editor's backup or dpkg's .dpkg-old beside a fragment is not read.
+            if (entry.path().extension() == ".toml" && entry.is_regular_file(ec)) {
+                fragments.push_back(entry.path());
+            }
+        }
+        if (ec) {
+            return fail(dir.string() + ": " + ec.message());
+        }
+        std::ranges::sort(fragments);
+        for (const auto& f : fragments) {
+            auto fragment = profile_detail::read_small_file(f, kMaxFileSize, "a configuration fragment");
+            if (!fragment) {
+                return fail(fragment.error());
+            }
+            files.push_back({f.string(), std::move(*fragment)});
+        }
+    }
+    return parse_config(files, options);
 }
 
 std::string_view to_string(LeaseFallback fallback) noexcept {

@@ -12,6 +12,7 @@
 #include "one_line_error.hpp"
 #include "scratch_dir.hpp"
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
@@ -229,6 +230,112 @@ TEST(LoadConfig, DirectoryIsNotAFile) {
     const auto config = load_config(DRIVEBUS_TEST_EXAMPLE_DIR);
     ASSERT_FALSE(config);
     EXPECT_NE(config.error().message.find("not a regular file"), std::string::npos) << config.error().message;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fragments: FILE's directory FILE.d/ (drivebusd.toml: drivebusd.d/), *.toml in name order
+
+constexpr std::string_view kSecondBus = R"([[bus]]
+name = "line2"
+device = "/dev/ttyUSB1"
+
+  [[bus.drive]]
+  name = "fan"
+  address = 2
+  profile = "atv21"
+)";
+
+TEST(Fragments, TheDirectoryIsNamedAfterTheFile) {
+    EXPECT_EQ(fragment_directory("/etc/drivebus/drivebusd.toml"), fs::path("/etc/drivebus/drivebusd.d"));
+    EXPECT_EQ(fragment_directory("/etc/drivebus/line1.toml"), fs::path("/etc/drivebus/line1.d"));
+}
+
+TEST(Fragments, BusesOfFragmentsComeAfterTheMainFileInNameOrder) {
+    const test::ScratchDir dir;
+    dir.write("drivebusd.toml", kValid);
+    fs::create_directory(dir.path() / "drivebusd.d");
+    dir.write("drivebusd.d/20-line3.toml", R"([[bus]]
+name = "line3"
+device = "/dev/ttyUSB2"
+
+  [[bus.drive]]
+  name = "mixer"
+  address = 3
+  profile = "atv21"
+)");
+    dir.write("drivebusd.d/10-line2.toml", kSecondBus);
+    // Not *.toml: an editor's backup and dpkg's old copy are not read.
+    dir.write("drivebusd.d/10-line2.toml~", "not toml at all [[");
+    dir.write("drivebusd.d/30-old.toml.dpkg-old", "not toml at all [[");
+    const auto config = load_config(dir.path() / "drivebusd.toml");
+    ASSERT_TRUE(config) << config.error().message;
+    ASSERT_EQ(config->buses.size(), 3U);
+    EXPECT_EQ(config->buses[0].name, "line1");
+    EXPECT_EQ(config->buses[1].name, "line2");
+    EXPECT_EQ(config->buses[2].name, "line3");
+    ASSERT_EQ(config->fragments.size(), 2U);
+    EXPECT_EQ(config->fragments[0].filename(), "10-line2.toml");
+    EXPECT_EQ(config->fragments[1].filename(), "20-line3.toml");
+}
+
+TEST(Fragments, AnErrorNamesTheFragmentItIsIn) {
+    const test::ScratchDir dir;
+    dir.write("drivebusd.toml", kValid);
+    fs::create_directory(dir.path() / "drivebusd.d");
+    const auto fragment = (dir.path() / "drivebusd.d" / "10-line2.toml").string();
+    std::string bad(kSecondBus);
+    bad.replace(bad.find("address = 2"), 11, "address = 300");
+    dir.write("drivebusd.d/10-line2.toml", bad);
+    auto config = load_config(dir.path() / "drivebusd.toml");
+    ASSERT_FALSE(config);
+    EXPECT_TRUE(config.error().message.starts_with(fragment + ": bus 'line2'")) << config.error().message;
+    EXPECT_NE(config.error().message.find("300"), std::string::npos) << config.error().message;
+
+    // A bus name taken in the main file: the fragment that takes it again is named.
+    std::string same(kSecondBus);
+    same.replace(same.find("line2"), 5, "line1");
+    dir.write("drivebusd.d/10-line2.toml", same);
+    config = load_config(dir.path() / "drivebusd.toml");
+    ASSERT_FALSE(config);
+    EXPECT_TRUE(config.error().message.starts_with(fragment + ": bus 'line1': name 'line1' is already another bus"))
+        << config.error().message;
+
+    // A syntax error.
+    dir.write("drivebusd.d/10-line2.toml", "[[bus]\n");
+    config = load_config(dir.path() / "drivebusd.toml");
+    ASSERT_FALSE(config);
+    EXPECT_TRUE(config.error().message.starts_with(fragment + ": line 1")) << config.error().message;
+}
+
+TEST(Fragments, RealtimeAndIpcBelongToTheMainFile) {
+    const std::array files = {ConfigText{"drivebusd.toml", std::string(kValid)},
+                              ConfigText{"drivebusd.d/ipc.toml", "[ipc]\nmax_clients = 4\n"}};
+    const auto config = parse_config(files);
+    ASSERT_FALSE(config);
+    EXPECT_TRUE(config.error().message.starts_with("drivebusd.d/ipc.toml: ")) << config.error().message;
+    EXPECT_NE(config.error().message.find("ipc"), std::string::npos) << config.error().message;
+}
+
+TEST(Fragments, AMainFileWithNoBusIsValidWhenAFragmentHasOne) {
+    const std::array files = {ConfigText{"drivebusd.toml", "[realtime]\nmode = \"off\"\n"},
+                              ConfigText{"drivebusd.d/line1.toml", std::string(kValid)}};
+    const auto config = parse_config(files);
+    ASSERT_TRUE(config) << config.error().message;
+    EXPECT_EQ(config->buses.size(), 1U);
+    EXPECT_EQ(config->realtime.mode, RealtimeMode::Off);
+}
+
+TEST(Fragments, ABusSettingsTextChangesWithItsSettingsAndNotWithItsPlace) {
+    const auto alone = parsed(kValid);
+    const std::array moved = {ConfigText{"drivebusd.toml", "# buses in drivebusd.d/\n"},
+                              ConfigText{"drivebusd.d/line1.toml", "# line 1\n\n" + std::string(kValid)}};
+    const auto elsewhere = parse_config(moved);
+    ASSERT_TRUE(elsewhere) << elsewhere.error().message;
+    EXPECT_FALSE(alone.buses[0].settings.empty());
+    EXPECT_EQ(alone.buses[0].settings, elsewhere->buses[0].settings);
+    std::string faster(kValid);
+    faster.replace(faster.find("100ms"), 5, "50ms");
+    EXPECT_NE(parsed(faster).buses[0].settings, alone.buses[0].settings);
 }
 
 // ---------------------------------------------------------------------------------------------

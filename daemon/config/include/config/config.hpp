@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,9 @@ struct BusConfig : master::BusPlan {
     // Used when the kernel says it has no RS485 support: rts, none, or nullopt (fail).
     std::optional<DirectionMode> kernel_fallback;
     std::filesystem::path lock_dir;  // UUCP lock files; empty: none
+    // The bus's [[bus]] table as written (TOML, normalised): a reload restarts the buses whose
+    // settings differ and leaves the others running.
+    std::string settings;
 };
 
 enum class RealtimeMode : std::uint8_t { Off, BestEffort, Required };
@@ -50,6 +54,8 @@ struct RealtimeConfig {
     // The bus thread's timer wakes it this long before each request is due and it spins on
     // the clock for the rest: a timer's wake-up is late by tens of microseconds. 0: off.
     Duration send_spin{};
+
+    bool operator==(const RealtimeConfig&) const = default;
 };
 
 enum class RouDiMode : std::uint8_t { Auto, Embedded, External };
@@ -62,10 +68,14 @@ struct IpcConfig {
     std::string control_group = "drivebus-control";  // send requests
     std::string daemon_group = "drivebusd";          // drivebusd alone: writes the publications
     std::size_t max_clients = 32;                    // sizes the shared memory
+
+    bool operator==(const IpcConfig&) const = default;
 };
 
 struct Config {
     std::filesystem::path source;
+    // The fragments read after it (fragment_directory()), in the order read.
+    std::vector<std::filesystem::path> fragments;
     IpcConfig ipc;
     std::vector<BusConfig> buses;
     RealtimeConfig realtime;
@@ -82,8 +92,23 @@ struct LoadOptions {
     std::optional<std::filesystem::path> profile_dir;
 };
 
+// One file of a configuration: its name, for errors, and its text.
+struct ConfigText {
+    std::string source;
+    std::string text;
+};
+
+// The main file first, then its fragments: each fragment holds [[bus]] tables only, which
+// come after the main file's buses in the order given; [realtime] and [ipc] are the main
+// file's. An error names the file it is in.
+[[nodiscard]] std::expected<Config, ConfigError> parse_config(std::span<const ConfigText> files,
+                                                              const LoadOptions& options = {});
 [[nodiscard]] std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source,
                                                               const LoadOptions& options = {});
+// Where `file`'s fragments are: beside it, its name without .toml and with .d
+// (/etc/drivebus/drivebusd.toml: /etc/drivebus/drivebusd.d/).
+[[nodiscard]] std::filesystem::path fragment_directory(const std::filesystem::path& file);
+// `file`, then every *.toml of fragment_directory(file) (if it exists) in file name order.
 [[nodiscard]] std::expected<Config, ConfigError> load_config(const std::filesystem::path& file,
                                                              const LoadOptions& options = {});
 
