@@ -46,6 +46,9 @@ file(WRITE ${PROJECT_BINARY_DIR}/package/drivebusd.toml
      "#\n${example}")
 set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/examples/atv21-atv58.toml)
 install(FILES ${PROJECT_BINARY_DIR}/package/drivebusd.toml DESTINATION ${DRIVEBUS_CONFDIR} COMPONENT deploy)
+# The directory of its fragments (drivebusd.toml(5)), empty: one [[bus]] per file, added by the
+# administrator or a configuration tool.
+install(DIRECTORY DESTINATION ${DRIVEBUS_CONFDIR}/drivebusd.d COMPONENT deploy)
 
 # --- The .deb -----------------------------------------------------------------------------
 set(CPACK_GENERATOR DEB)

@@ -11,7 +11,9 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,6 +21,7 @@
 #include "bus/bus_loop.hpp"
 #include "bus/line_opener.hpp"
 #include "config/config.hpp"
+#include "config/reload.hpp"
 #include "drivebus/version.hpp"
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
@@ -48,19 +51,25 @@ std::string describe(const config::Config& c) {
            (drives == 1 ? " drive" : " drives");
 }
 
+// One bus as it runs: its settings (which the loop and the service refer to), its bus thread
+// and its ipc thread.
+struct RunningBus {
+    std::unique_ptr<config::BusConfig> config;
+    std::unique_ptr<bus::BusLoop> loop;
+    std::unique_ptr<ipc::BusService> service;
+};
+
 // For systemd's STATUS=: "line1 up, 2/2 drives online, 1234 replies, 0 timeouts".
-std::string status_line(const std::vector<std::unique_ptr<bus::BusLoop>>& loops,
-                        const std::vector<std::unique_ptr<ipc::BusService>>& services) {
+std::string status_line(const std::vector<RunningBus>& buses) {
     std::string out;
-    for (std::size_t i = 0; i < loops.size(); ++i) {
-        const auto s = loops[i]->status();
+    for (const auto& b : buses) {
+        const auto s = b.loop->status();
         if (!out.empty()) {
             out += "; ";
         }
-        out += loops[i]->config().name + (s.up ? " up" : " down") + ", " +
-               std::to_string(i < services.size() ? services[i]->drives_online() : 0) + "/" +
-               std::to_string(loops[i]->config().drives.size()) + " drives online, " +
-               std::to_string(s.counters.replies) + " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
+        out += b.config->name + (s.up ? " up" : " down") + ", " + std::to_string(b.service->drives_online()) + "/" +
+               std::to_string(b.config->drives.size()) + " drives online, " + std::to_string(s.counters.replies) +
+               " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
     }
     return out;
 }
@@ -89,6 +98,63 @@ std::string fmt_mib(const std::string& before, std::size_t kib) {
     return before + std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " MiB";
 }
 
+// Warnings a configuration still leaves, and the permanent misconfigurations of its lines (a
+// GPIO chip that is not there, RS485 the driver lacks): the first of those is the error.
+std::expected<void, std::string> check_and_warn(const config::Config& c) {
+    for (const auto& line : config::start_up_warnings(c)) {
+        log::warning(line);
+    }
+    for (const auto& bus : c.buses) {
+        for (const auto& line : master::line_budget_warnings(bus)) {
+            log::warning(line);
+        }
+    }
+    for (const auto& bus : c.buses) {
+        if (auto usable = bus::check_line(bus); !usable) {
+            return std::unexpected(usable.error());
+        }
+    }
+    return {};
+}
+
+// Starts one bus: its thread, then its ipc thread (with the leases a reload carried over).
+std::expected<RunningBus, std::string> start_bus(const config::BusConfig& settings, const config::RealtimeConfig& rt,
+                                                 const ipc::Layout& layout, const rt::KernelFacts& kernel,
+                                                 const ipc::Carried& carried) {
+    RunningBus b;
+    b.config = std::make_unique<config::BusConfig>(settings);
+    const auto& bus = *b.config;
+    // What stands on the kernel's side between the wire and the bus's reads: a notice where a
+    // setting works against exact framing (docs/rs485.md).
+    for (const auto& finding : rt::judge(kernel, rt::read_port_facts(serial::tty_name(bus.device)))) {
+        log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
+                   "bus " + bus.name + ": " + finding.text);
+    }
+    // The bus thread and the ipc thread meet only in the loop's hand-over rings.
+    bus::LoopOptions loop_options;
+    loop_options.realtime = rt;
+    loop_options.send_spin = rt.send_spin;
+    b.loop = std::make_unique<bus::BusLoop>(bus, master::EngineCallbacks{}, std::move(loop_options));
+    b.service = std::make_unique<ipc::BusService>(bus, layout, *b.loop, carried);
+    if (auto started = b.loop->start(); !started) {
+        return std::unexpected(started.error() + "; [realtime] mode is required");
+    }
+    log::notice("bus " + bus.name + ": " + bus.device.string() + ", " + serial::describe(bus.format) + ", " +
+                std::to_string(bus.drives.size()) + " drives");
+    b.service->start([rt, name = bus.name] { service_thread_realtime(rt, name); });
+    return b;
+}
+
+// Stops one bus for good or for a restart: the bus thread first, so that every request it had
+// is answered (the one on the wire as the line going down does), then the ipc thread, which
+// answers them and the rest, and gives up the leases held now and the snapshots' sequences.
+ipc::Carried stop_bus(RunningBus& b) {
+    b.loop->stop();
+    auto carried = b.service->retire();
+    b.service.reset();
+    b.loop.reset();
+    return carried;
+}
 }  // namespace
 
 int run_main(int argc, char** argv) {
@@ -119,24 +185,14 @@ int run_main(int argc, char** argv) {
         options.profile_dir = profile_dir;
     }
     // Validated once; nothing is opened before the whole configuration is valid.
-    const auto config = config::load_config(config_path, options);
+    auto config = config::load_config(config_path, options);
     if (!config) {
         log::error(config.error().message);
         return kExitConfig;
     }
-    for (const auto& line : config::start_up_warnings(*config)) {
-        log::warning(line);
-    }
-    for (const auto& bus : config->buses) {
-        for (const auto& line : master::line_budget_warnings(bus)) {
-            log::warning(line);
-        }
-    }
-    for (const auto& bus : config->buses) {
-        if (auto usable = bus::check_line(bus); !usable) {
-            log::error(usable.error());
-            return kExitConfig;
-        }
+    if (auto checked = check_and_warn(*config); !checked) {
+        log::error(checked.error());
+        return kExitConfig;
     }
     if (check_only) {
         std::cout << config_path << ": valid, " << describe(*config) << '\n';
@@ -156,7 +212,7 @@ int run_main(int argc, char** argv) {
     }
     const sys::UniqueFd signal_fd(*made);
 
-    const auto& rt = config->realtime;
+    const auto rt = config->realtime;
     auto ipc_host = ipc::Host::start(*config, "drivebusd-" + std::to_string(::getpid()));
     if (!ipc_host) {
         log::error(ipc_host.error());
@@ -177,41 +233,23 @@ int run_main(int argc, char** argv) {
         log::notice("shared memory: " + note);
     }
 
-    std::vector<std::unique_ptr<ipc::BusService>> services;
-    std::vector<std::unique_ptr<bus::BusLoop>> loops;
-    // Services first: their threads read their loop's state.
+    // The running buses. Each is stopped bus thread first (stop_bus()).
+    std::vector<RunningBus> buses;
     const auto stop_all = [&] {
-        for (auto& s : services) {
-            s->stop();
+        for (auto& b : buses) {
+            (void)stop_bus(b);
         }
-        for (auto& l : loops) {
-            l->stop();
-        }
+        buses.clear();
     };
-    // What stands on the kernel's side between the wire and each bus's reads, once per bus at
-    // start-up: a notice where a setting works against exact framing (docs/rs485.md).
     const auto kernel = rt::read_kernel_facts(rt.mode == config::RealtimeMode::Off ? std::vector<int>{} : rt.cpus);
     for (const auto& b : config->buses) {
-        for (const auto& finding : rt::judge(kernel, rt::read_port_facts(serial::tty_name(b.device)))) {
-            log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
-                       "bus " + b.name + ": " + finding.text);
-        }
-        // The bus thread and the ipc thread meet only in the loop's hand-over rings.
-        bus::LoopOptions loop_options;
-        loop_options.realtime = rt;
-        loop_options.send_spin = rt.send_spin;
-        auto loop = std::make_unique<bus::BusLoop>(b, master::EngineCallbacks{}, std::move(loop_options));
-        auto service = std::make_unique<ipc::BusService>(b, (*ipc_host)->layout(), *loop);
-        if (auto started = loop->start(); !started) {
-            log::error(started.error() + "; [realtime] mode is required");
+        auto started = start_bus(b, rt, (*ipc_host)->layout(), kernel, {});
+        if (!started) {
+            log::error(started.error());
             stop_all();
             return kExitStartup;
         }
-        log::notice("bus " + b.name + ": " + b.device.string() + ", " + serial::describe(b.format) + ", " +
-                    std::to_string(b.drives.size()) + " drives");
-        service->start([&rt, name = b.name] { service_thread_realtime(rt, name); });
-        loops.push_back(std::move(loop));
-        services.push_back(std::move(service));
+        buses.push_back(std::move(*started));
     }
     // Locked once the shared memory is mapped and every thread runs, so that what is locked is
     // what this process has, less iceoryx's management segment (see rt/memory.hpp).
@@ -234,14 +272,92 @@ int run_main(int argc, char** argv) {
     log::notice(std::string("drivebusd ") + DRIVEBUS_VERSION_STRING + " running: " + describe(*config));
     sd_notify(0, "READY=1");
 
+    // SIGHUP: the configuration read and checked again; applied only whole. A bus whose
+    // settings changed is restarted with its leases; the others, and every client, go on.
+    const auto reload = [&] {
+        log::notice("reload: reading " + config_path);
+        auto next = config::load_config(config_path, options);
+        if (!next) {
+            log::error("reload refused, the running configuration stays: " + next.error().message);
+            return;
+        }
+        auto plan = config::plan_reload(*config, *next);
+        if (!plan) {
+            log::error("reload refused, the running configuration stays: " + plan.error());
+            return;
+        }
+        if ((*ipc_host)->embedded()) {
+            auto needed = ipc::plan_layout(*next);
+            if (!needed) {
+                log::error("reload refused, the running configuration stays: " + needed.error());
+                return;
+            }
+            if (const auto short_of = ipc::layout_shortfall((*ipc_host)->layout(), *needed)) {
+                log::error("reload refused, the running configuration stays: " + *short_of +
+                           "; restart drivebusd to apply it (systemctl restart drivebusd)");
+                return;
+            }
+        }
+        if (auto checked = check_and_warn(*next); !checked) {
+            log::error("reload refused, the running configuration stays: " + checked.error());
+            return;
+        }
+        for (const auto& name : plan->start) {
+            if (const auto pid = ipc::bus_served_elsewhere(name)) {
+                log::error("reload refused, the running configuration stays: bus " + name +
+                           " is already served by another drivebusd (pid " + std::to_string(*pid) + ")");
+                return;
+            }
+        }
+        const auto in = [](const std::vector<std::string>& names, const std::string& name) {
+            return std::ranges::find(names, name) != names.end();
+        };
+        std::map<std::string, ipc::Carried> carried;
+        std::vector<RunningBus> kept;
+        for (auto& b : buses) {
+            if (in(plan->keep, b.config->name)) {
+                kept.push_back(std::move(b));
+            } else {
+                carried[b.config->name] = stop_bus(b);
+            }
+        }
+        buses = std::move(kept);
+        const auto now_rt = next->realtime;
+        for (const auto& settings : next->buses) {
+            if (in(plan->keep, settings.name)) {
+                continue;
+            }
+            auto started = start_bus(settings, now_rt, (*ipc_host)->layout(), kernel, carried[settings.name]);
+            if (!started) {
+                // Only a refused real-time priority, with mode = "required": nothing else differs
+                // from the start, which was granted it.
+                log::error("reload: bus " + settings.name + " not started: " + started.error());
+                continue;
+            }
+            buses.push_back(std::move(*started));
+        }
+        // Each bus in the order of the configuration.
+        std::ranges::sort(buses, {}, [&](const RunningBus& b) {
+            return std::ranges::find(next->buses, b.config->name, &config::BusConfig::name) - next->buses.begin();
+        });
+        log::notice("reload: " + config::describe(*plan) + "; running: " + describe(*next));
+        config = std::move(next);
+    };
+
     sys::EventLoop loop;
     sys::Timer status_timer;
+    std::map<std::string, std::uint64_t> heartbeats;  // by bus: a restarted bus starts again
     auto signals_added = loop.add(signal_fd.get(), [&] {
         signalfd_siginfo info{};
         while (sys::posix_call("read", [&] { return ::read(signal_fd.get(), &info, sizeof info); }) ==
                static_cast<ssize_t>(sizeof info)) {
             if (info.ssi_signo == SIGINT || info.ssi_signo == SIGTERM) {
                 loop.stop();
+            } else if (info.ssi_signo == SIGHUP) {
+                sd_notify(0, "RELOADING=1");
+                reload();
+                heartbeats.clear();
+                sd_notifyf(0, "READY=1\nSTATUS=%s", status_line(buses).c_str());
             }
         }
     });
@@ -249,22 +365,21 @@ int run_main(int argc, char** argv) {
     // a stuck loop stops the feeding and systemd restarts the service.
     std::uint64_t watchdog_usec = 0;
     const bool watchdog = sd_watchdog_enabled(0, &watchdog_usec) > 0;
-    std::vector<std::uint64_t> heartbeats(loops.size(), 0);
     auto timer_added = loop.add(status_timer.fd(), [&] {
         status_timer.acknowledge();
         bool alive = true;
-        for (std::size_t i = 0; i < loops.size(); ++i) {
-            const std::uint64_t beat = loops[i]->heartbeat();
-            if (beat == heartbeats[i]) {
+        for (const auto& b : buses) {
+            const std::uint64_t beat = b.loop->heartbeat();
+            if (const auto it = heartbeats.find(b.config->name); it != heartbeats.end() && beat == it->second) {
                 alive = false;
-                log::error("bus " + loops[i]->config().name + ": its event loop has not run for a second");
+                log::error("bus " + b.config->name + ": its event loop has not run for a second");
             }
-            heartbeats[i] = beat;
+            heartbeats[b.config->name] = beat;
         }
         if (watchdog && alive) {
             sd_notify(0, "WATCHDOG=1");
         }
-        sd_notifyf(0, "STATUS=%s", status_line(loops, services).c_str());
+        sd_notifyf(0, "STATUS=%s", status_line(buses).c_str());
         if (auto armed = status_timer.arm(sys::now() + std::chrono::seconds(1)); !armed) {
             log::error("status timer: " + armed.error().message() + "; the watchdog is no longer fed");
         }
@@ -282,8 +397,9 @@ int run_main(int argc, char** argv) {
     (void)loop.run();
 
     sd_notify(0, "STOPPING=1");
+    const auto last = status_line(buses);
     stop_all();
-    log::notice("stopped: " + status_line(loops, services));
+    log::notice("stopped: " + last);
     return 0;
 }
 

@@ -55,6 +55,11 @@ public:
             log::error("bus " + bus_.name + ": event loop: " + ran.error().message());
         }
         close_port();
+        // Every request the bus had is answered before the thread ends (a reload restarting
+        // the bus answers its clients from these): the one on the wire and those waiting as
+        // the line going down does, those still in the ring refused, bus down.
+        engine_.line_down(sys::now());
+        desk_.take_requests();
     }
 
     void request_stop() noexcept override {

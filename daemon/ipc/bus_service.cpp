@@ -31,12 +31,12 @@ constexpr auto kStatusCheck = std::chrono::milliseconds(100);
 }  // namespace
 
 struct BusService::Impl {
-    Impl(const config::BusConfig& b, const Layout& layout, bus::BusLoop& l)
+    Impl(const config::BusConfig& b, const Layout& layout, bus::BusLoop& l, std::shared_ptr<Intake::Server> server)
         : bus(b),
           loop(l),
           leases(b, random_tokens()),
           publisher(b, layout),
-          intake(b, l, leases),
+          intake(b, l, leases, std::move(server)),
           stop_fd("eventfd for bus " + b.name + "'s ipc thread") {}
 
     const config::BusConfig& bus;
@@ -158,8 +158,21 @@ struct BusService::Impl {
     }
 };
 
-BusService::BusService(const config::BusConfig& bus, const Layout& layout, bus::BusLoop& loop)
-    : impl_(std::make_unique<Impl>(bus, layout, loop)) {}
+BusService::BusService(const config::BusConfig& bus, const Layout& layout, bus::BusLoop& loop, const Carried& carried)
+    : impl_(std::make_unique<Impl>(bus, layout, loop, carried.server)) {
+    for (const auto& note : impl_->leases.adopt(carried.leases)) {
+        write_note(note);
+    }
+    impl_->publisher.continue_sequences(carried.sequences);
+    // The adopted leases are published with each drive's first snapshot.
+}
+
+Carried BusService::retire() {
+    stop();
+    impl_->drain();
+    impl_->intake.abandon();
+    return {impl_->leases.carry(), impl_->publisher.sequences(), impl_->intake.release()};
+}
 
 BusService::~BusService() {
     stop();

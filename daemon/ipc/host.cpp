@@ -176,6 +176,29 @@ std::expected<Layout, std::string> plan_layout(const config::Config& config) {
     return layout;
 }
 
+std::optional<std::string> layout_shortfall(const Layout& running, const Layout& needed) {
+    if (running.grouped != needed.grouped || running.segments.size() != needed.segments.size()) {
+        return "the groups of [ipc] exist now as they did not at start (or the reverse)";
+    }
+    for (std::size_t s = 0; s < needed.segments.size(); ++s) {
+        const auto& have = running.segments[s];
+        const auto& want = needed.segments[s];
+        if (have.reader_group != want.reader_group || have.writer_group != want.writer_group ||
+            have.pools.size() != want.pools.size()) {
+            return "the shared memory's segments differ from those set up at start";
+        }
+        for (std::size_t p = 0; p < want.pools.size(); ++p) {
+            if (want.pools[p].size > have.pools[p].size || want.pools[p].count > have.pools[p].count) {
+                return fmt::format(
+                    "the buses and drives need {} chunks of {} bytes in the segment of group {}, the shared memory "
+                    "set up at start has {}",
+                    want.pools[p].count, want.pools[p].size, want.writer_group, have.pools[p].count);
+            }
+        }
+    }
+    return std::nullopt;
+}
+
 bool roudi_running() {
     std::string path = iox::platform::IOX_UDS_SOCKET_PATH_PREFIX;
     path += iox::roudi::IPC_CHANNEL_ROUDI_NAME;

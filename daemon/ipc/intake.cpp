@@ -17,11 +17,17 @@ namespace drivebus::ipc {
 
 using iox::popo::RequestHeader;
 
+struct Intake::Server {
+    explicit Server(const std::string& bus) : server(service(bus, shm::kRequestEvent), iox::popo::ServerOptions{}) {}
+    iox::popo::UntypedServer server;
+};
+
 struct Intake::Impl {
-    Impl(const config::BusConfig& b, bus::BusLoop& l, LeasePolicy& leases)
+    Impl(const config::BusConfig& b, bus::BusLoop& l, LeasePolicy& leases, std::shared_ptr<Intake::Server> adopted)
         : loop(l),
           ready("eventfd for bus " + b.name + "'s requests"),
-          server(service(b.name, shm::kRequestEvent), iox::popo::ServerOptions{}),
+          port(adopted ? std::move(adopted) : std::make_shared<Intake::Server>(b.name)),
+          server(port->server),
           core(b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); }) {
         if (listener
                 .attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
@@ -30,7 +36,13 @@ struct Intake::Impl {
             throw std::runtime_error("bus " + b.name + ": iceoryx refused a listener for its requests");
         }
     }
-    ~Impl() { listener.detachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED); }
+    ~Impl() { detach(); }
+    void detach() {
+        if (attached) {
+            listener.detachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED);
+            attached = false;
+        }
+    }
     Impl(const Impl&) = delete;
     Impl& operator=(const Impl&) = delete;
     Impl(Impl&&) = delete;
@@ -50,13 +62,20 @@ struct Intake::Impl {
 
     bus::BusLoop& loop;
     sys::EventFd ready;
-    iox::popo::UntypedServer server;
+    std::shared_ptr<Intake::Server> port;
+    iox::popo::UntypedServer& server;
     IntakeCore<RequestHeader> core;
     iox::popo::Listener listener;
+    bool attached = true;
 };
 
-Intake::Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases)
-    : impl_(std::make_unique<Impl>(bus, loop, leases)) {}
+Intake::Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases, std::shared_ptr<Server> adopted)
+    : impl_(std::make_unique<Impl>(bus, loop, leases, std::move(adopted))) {}
+
+std::shared_ptr<Intake::Server> Intake::release() {
+    impl_->detach();
+    return impl_->port;
+}
 
 Intake::~Intake() = default;
 
@@ -95,6 +114,17 @@ void Intake::answer(const master::Finished& f) {
     }
     if (a && a->entry.withdrawal) {
         impl_->send(*a->entry.withdrawal, a->response);
+    }
+}
+
+void Intake::abandon() {
+    for (auto& a : impl_->core.abandon()) {
+        if (a.entry.route) {
+            impl_->send(*a.entry.route, a.response);
+        }
+        if (a.entry.withdrawal) {
+            impl_->send(*a.entry.withdrawal, a.response);
+        }
     }
 }
 

@@ -77,6 +77,22 @@ bool Publisher::snapshot(std::size_t drive, const master::DriveSnapshot& s, cons
     return true;
 }
 
+std::vector<std::pair<std::string, std::uint64_t>> Publisher::sequences() const {
+    std::vector<std::pair<std::string, std::uint64_t>> out;
+    for (std::size_t i = 0; i < last_.size(); ++i) {
+        out.emplace_back(bus_.drives[i].name, last_[i].sequence);
+    }
+    return out;
+}
+
+void Publisher::continue_sequences(const std::vector<std::pair<std::string, std::uint64_t>>& sequences) {
+    for (const auto& [name, sequence] : sequences) {
+        if (const auto i = drive_index(name)) {
+            last_[*i].sequence = sequence;
+        }
+    }
+}
+
 void Publisher::lease(std::size_t drive, const shm::LeaseStatus& lease) {
     last_.at(drive).lease = lease;
     publish(drive);

@@ -39,6 +39,25 @@ LeaseTable::LeaseTable(const config::BusConfig& bus, TokenSource tokens) : token
     }
 }
 
+std::vector<HeldLease> LeaseTable::held() const {
+    std::vector<HeldLease> out;
+    for (std::size_t i = 0; i < leases_.size(); ++i) {
+        if (const auto& l = leases_[i]; l.state == shm::LeaseState::Held) {
+            out.push_back({i, l.holder, l.token, l.expires});
+        }
+    }
+    return out;
+}
+
+void LeaseTable::adopt(const HeldLease& lease) {
+    auto& l = leases_.at(lease.drive);
+    l.holder = lease.holder;
+    l.token = lease.token;
+    l.expires = lease.expires;
+    l.state = shm::LeaseState::Held;
+    l.fallback_ok = false;
+}
+
 bool LeaseTable::held_under(const Lease& l, const LeaseToken& token) {
     return l.state == shm::LeaseState::Held && !zero(token) && same(l.token, token);
 }

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "ipc/lease_policy.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 namespace drivebus::ipc {
@@ -16,6 +18,35 @@ LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
 
 std::string LeasePolicy::where(std::size_t drive) const {
     return fmt::format("bus {} drive {}", bus_.name, bus_.drives.at(drive).name);
+}
+
+std::vector<CarriedLease> LeasePolicy::carry() const {
+    std::vector<CarriedLease> out;
+    for (const auto& held : table_.held()) {
+        out.push_back({bus_.drives.at(held.drive).name, held});
+    }
+    return out;
+}
+
+std::vector<Note> LeasePolicy::adopt(const std::vector<CarriedLease>& leases) {
+    std::vector<Note> notes;
+    for (const auto& c : leases) {
+        const auto it =
+            std::ranges::find_if(bus_.drives, [&](const config::DriveConfig& d) { return d.name == c.drive; });
+        if (it == bus_.drives.end()) {
+            notes.push_back({log::Level::Warning,
+                             fmt::format("bus {}: drive {} is no longer configured: the lease {} held on it ends "
+                                         "with no fallback",
+                                         bus_.name, c.drive, c.lease.holder.name)});
+            continue;
+        }
+        auto lease = c.lease;
+        lease.drive = static_cast<std::size_t>(it - bus_.drives.begin());
+        table_.adopt(lease);
+        notes.push_back({log::Level::Info, fmt::format("{}: the lease of {} is kept across the reload",
+                                                       where(lease.drive), lease.holder.name)});
+    }
+    return notes;
 }
 
 LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now) {

@@ -3,6 +3,7 @@
 // Profiles are the real ones, found along the default search path (the source tree), except
 // where a test needs a profile of its own.
 #include "config/config.hpp"
+#include "config/reload.hpp"
 
 #include <gtest/gtest.h>
 
@@ -336,6 +337,75 @@ TEST(Fragments, ABusSettingsTextChangesWithItsSettingsAndNotWithItsPlace) {
     std::string faster(kValid);
     faster.replace(faster.find("100ms"), 5, "50ms");
     EXPECT_NE(parsed(faster).buses[0].settings, alone.buses[0].settings);
+}
+
+// ---------------------------------------------------------------------------------------------
+// What a reload does with a new configuration
+
+TEST(PlanReload, KeepsWhatIsUnchangedAndRestartsStopsOrStartsTheRest) {
+    const std::array running_files = {ConfigText{"drivebusd.toml", std::string(kValid)},
+                                      ConfigText{"drivebusd.d/line2.toml", std::string(kSecondBus)}};
+    const auto running = parse_config(running_files);
+    ASSERT_TRUE(running) << running.error().message;
+
+    auto same = plan_reload(*running, *running);
+    ASSERT_TRUE(same);
+    EXPECT_TRUE(same->nothing());
+    EXPECT_EQ(describe(*same), "no change");
+
+    // line1 polls faster, line2 is gone, line3 is new.
+    std::string faster(kValid);
+    faster.replace(faster.find("100ms"), 5, "50ms");
+    const std::array next_files = {ConfigText{"drivebusd.toml", faster}, ConfigText{"drivebusd.d/line3.toml", R"([[bus]]
+name = "line3"
+device = "/dev/ttyUSB2"
+  [[bus.drive]]
+  name = "mixer"
+  address = 3
+  profile = "atv21"
+)"}};
+    const auto next = parse_config(next_files);
+    ASSERT_TRUE(next) << next.error().message;
+    const auto plan = plan_reload(*running, *next);
+    ASSERT_TRUE(plan);
+    EXPECT_EQ(plan->keep, std::vector<std::string>{});
+    EXPECT_EQ(plan->restart, std::vector<std::string>{"line1"});
+    EXPECT_EQ(plan->stop, std::vector<std::string>{"line2"});
+    EXPECT_EQ(plan->start, std::vector<std::string>{"line3"});
+    EXPECT_EQ(describe(*plan), "restarted (settings changed) line1; stopped line2; started line3");
+
+    // The same buses with only a comment and the order of keys changed: nothing restarts.
+    const std::array reordered = {ConfigText{"drivebusd.toml", "# edited\n" + std::string(kValid)},
+                                  ConfigText{"drivebusd.d/line2.toml", R"([[bus]]
+device = "/dev/ttyUSB1"
+name = "line2"
+
+  [[bus.drive]]
+  profile = "atv21"
+  address = 2
+  name = "fan"
+)"}};
+    const auto edited = parse_config(reordered);
+    ASSERT_TRUE(edited) << edited.error().message;
+    const auto untouched = plan_reload(*running, *edited);
+    ASSERT_TRUE(untouched);
+    EXPECT_TRUE(untouched->nothing()) << describe(*untouched);
+    EXPECT_EQ(untouched->keep, (std::vector<std::string>{"line1", "line2"}));
+}
+
+TEST(PlanReload, RealtimeRestartsEveryBusAndIpcNeedsARestartOfTheDaemon) {
+    const auto running = parsed(kValid);
+    const auto realtime = parsed("[realtime]\npriority = 70\n" + std::string(kValid));
+    const auto plan = plan_reload(running, realtime);
+    ASSERT_TRUE(plan);
+    EXPECT_TRUE(plan->realtime_changed);
+    EXPECT_EQ(plan->restart, std::vector<std::string>{"line1"});
+    EXPECT_EQ(describe(*plan), "restarted ([realtime] changed) line1");
+
+    const auto ipc = parsed("[ipc]\nmax_clients = 4\n" + std::string(kValid));
+    const auto refused = plan_reload(running, ipc);
+    ASSERT_FALSE(refused);
+    EXPECT_TRUE(refused.error().starts_with("[ipc] changed")) << refused.error();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -449,6 +449,77 @@ TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
 
 // The one queue limit: clients' entries up to the limit, drivebusd's own beyond it, and every
 // entry leaves exactly once.
+// A reload that restarts a bus carries its leases to the restarted bus's policy by drive name:
+// the holder's token, renewals and deadline go on; the drives may be renumbered; a lease on a
+// drive the reload removed ends with a line saying it has no fallback left.
+TEST(LeasePolicy, AReloadCarriesTheLeasesByDriveName) {
+    const auto before = bus();
+    LeasePolicy old(before, counting_tokens());
+    const rtu::Instant t0{};
+    Origin a{1, 11, "a", shm::RequestKind::Write, 0};
+    const auto taken = old.command(0, a, false, t0);
+    ASSERT_EQ(taken.status, shm::Status::Ok);
+    a.token = taken.token;
+    Origin b{2, 22, "b", shm::RequestKind::Write, 1};
+    const auto fan = old.command(1, b, false, t0);
+    ASSERT_EQ(fan.status, shm::Status::Ok);
+    const auto carried = old.carry();
+    ASSERT_EQ(carried.size(), 2U);
+
+    // The restarted bus: the pump is now the second drive, and the fan is gone.
+    const auto after = bus(R"([[bus]]
+name = "line1"
+device = "/dev/ttyUSB0"
+parity = "none"
+  [[bus.drive]]
+  name = "mixer"
+  address = 3
+  profile = "atv21"
+  [[bus.drive]]
+  name = "pump"
+  address = 1
+  profile = "atv21"
+  lease = "500ms"
+)");
+    LeasePolicy next(after, [] {
+        ADD_FAILURE() << "no token is made: the holder keeps its own";
+        return LeaseToken{9, 9};
+    });
+    const auto notes = next.adopt(carried);
+    ASSERT_EQ(notes.size(), 2U);
+    EXPECT_EQ(notes[0].level, log::Level::Info);
+    EXPECT_NE(notes[0].text.find("drive pump: the lease of a is kept across the reload"), std::string::npos)
+        << notes[0].text;
+    EXPECT_EQ(notes[1].level, log::Level::Warning);
+    EXPECT_NE(notes[1].text.find("drive fan is no longer configured"), std::string::npos) << notes[1].text;
+
+    EXPECT_EQ(next.status(1).state, shm::LeaseState::Held);
+    EXPECT_EQ(next.status(0).state, shm::LeaseState::Free);
+    // The holder renews and writes with its token; anyone else is refused.
+    Origin moved = a;
+    moved.drive = 1;
+    EXPECT_EQ(next.renew(1, moved, t0 + 400ms).status, shm::Status::Ok);
+    Origin other{3, 33, "c", shm::RequestKind::Write, 1};
+    EXPECT_EQ(next.command(1, other, false, t0 + 450ms).status, shm::Status::NotPermitted);
+    // The deadline went on from the renewal: it runs out 500 ms after it, with the fallback.
+    EXPECT_TRUE(next.expire(t0 + 850ms).empty());
+    const auto expired = next.expire(t0 + 901ms);
+    ASSERT_EQ(expired.size(), 1U);
+    EXPECT_EQ(expired[0].drive, 1U);
+}
+
+TEST(LeasePolicy, AnUnrenewedCarriedLeaseRunsOutAtItsOldDeadline) {
+    const auto b = bus();
+    LeasePolicy old(b, counting_tokens());
+    const rtu::Instant t0{};
+    const Origin a{1, 11, "a", shm::RequestKind::Write, 0};
+    ASSERT_EQ(old.command(0, a, false, t0).status, shm::Status::Ok);
+    LeasePolicy next(b, counting_tokens());
+    (void)next.adopt(old.carry());
+    EXPECT_TRUE(next.expire(t0 + 499ms).empty());
+    EXPECT_EQ(next.expire(t0 + 500ms).size(), 1U);
+}
+
 TEST(PendingBook, BooksUpToTheLimitAndEveryEntryLeavesOnce) {
     PendingBook<int> book(2);
     const auto first = book.book(Origin{}, 1);

@@ -130,6 +130,23 @@ int main(int argc, char** argv) {
         }
         return 0;
     }
+    // Every new snapshot of the pump, for ever: "snapshot SEQUENCE FD00 FD00_READ_NS".
+    if (mode == "watch" && argc == 3) {
+        std::uint64_t seen = 0;
+        for (;;) {
+            auto s = pump->wait_snapshot(std::chrono::seconds(1), seen);
+            if (!s && s.error().kind == drivebus::ErrorKind::NoReply) {
+                continue;
+            }
+            if (!s) {
+                return fail(s.error());
+            }
+            seen = s->sequence;
+            const auto* fd00 = s->find(0xFD00);
+            std::printf("snapshot %llu %u %lld\n", static_cast<unsigned long long>(seen), fd00 ? fd00->value : 0U,
+                        static_cast<long long>(fd00 ? fd00->time_ns : 0));
+        }
+    }
     if (mode == "read" && argc == 5) {
         for (int i = 0; i < std::atoi(argv[4]); ++i) {
             auto v = read_on_a_busy_machine(*pump, argv[3]);

@@ -9,20 +9,31 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "bus/bus_loop.hpp"
 #include "config/config.hpp"
 #include "ipc/host.hpp"
+#include "ipc/intake.hpp"
+#include "ipc/lease_policy.hpp"
 
 namespace drivebus::ipc {
 
 // The pid of a drivebusd that already offers this bus's status, if one does.
 [[nodiscard]] std::optional<int> bus_served_elsewhere(const std::string& bus);
 
+// What a bus restarted by a reload takes over from its former self, drive by drive (by name).
+struct Carried {
+    std::vector<CarriedLease> leases;
+    std::vector<std::pair<std::string, std::uint64_t>> sequences;  // each drive's last snapshot's
+    std::shared_ptr<Intake::Server> server;                        // with the requests waiting in it
+};
+
 class BusService {
 public:
-    // Offers the bus's services for `loop` (which must outlive the service).
-    BusService(const config::BusConfig& bus, const Layout& layout, bus::BusLoop& loop);
+    // Offers the bus's services for `loop` (which must outlive the service). `carried`: what a
+    // reload carried over from the bus before its restart (BusService::retire()).
+    BusService(const config::BusConfig& bus, const Layout& layout, bus::BusLoop& loop, const Carried& carried = {});
     ~BusService();
     BusService(const BusService&) = delete;
     BusService& operator=(const BusService&) = delete;
@@ -33,6 +44,11 @@ public:
     // expires the control leases: it sets its scheduling.
     void start(const std::function<void()>& on_thread = {});
     void stop();
+
+    // A reload restarts the bus: once this service and its loop have both stopped, answers what
+    // the bus finished, then every request still waiting (refused, bus down), and returns the
+    // leases held now and the snapshots' sequences for the restarted bus's service.
+    [[nodiscard]] Carried retire();
 
     // Any thread.
     [[nodiscard]] std::size_t drives_online() const;

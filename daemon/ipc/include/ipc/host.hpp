@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <expected>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,10 @@ struct Layout {
 // The segments for this configuration, sized for its drives and max_clients. Fails when only
 // some of the groups exist, or when this process's user is not in daemon_group.
 [[nodiscard]] std::expected<Layout, std::string> plan_layout(const config::Config& config);
+
+// Why shared memory laid out as `running` cannot hold what `needed` asks for (a reload that
+// adds buses or drives, or clients), one line; nullopt when it can.
+[[nodiscard]] std::optional<std::string> layout_shortfall(const Layout& running, const Layout& needed);
 
 // Whether a RouDi answers on its socket (/tmp/roudi).
 [[nodiscard]] bool roudi_running();

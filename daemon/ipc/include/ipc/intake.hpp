@@ -17,7 +17,13 @@ namespace drivebus::ipc {
 
 class Intake {
 public:
-    Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases);
+    // The bus's iceoryx server, with the requests waiting in it: a reload that restarts the bus
+    // hands it to the restarted bus's intake, so that clients never see it go away.
+    struct Server;
+
+    // `adopted`: the server of the bus before its restart (release()); a new one otherwise.
+    Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases,
+           std::shared_ptr<Server> adopted = nullptr);
     ~Intake();
     Intake(const Intake&) = delete;
     Intake& operator=(const Intake&) = delete;
@@ -30,6 +36,10 @@ public:
     void take(rtu::Instant now);
     // Answers what the bus finished.
     void answer(const master::Finished& f);
+    // After the bus thread has ended: answers every request still waiting, refused, bus down.
+    void abandon();
+    // Stops listening and gives the server up for the restarted bus's intake.
+    [[nodiscard]] std::shared_ptr<Server> release();
     // A lease fallback's write; false when the bus could not take it.
     bool submit_own(std::size_t drive, const rtu::RequestAdu& write);
     // Drives whose lease snapshot changed since the last call.

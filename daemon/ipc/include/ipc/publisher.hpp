@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "config/config.hpp"
@@ -42,6 +43,11 @@ public:
         std::uint64_t lease_expiries = 0;
     };
     void status(const master::BusStatus& bus, const IpcCounts& counts);
+
+    // Each drive's last published sequence, by name, and the same taken over (a bus restarted
+    // by a reload): its subscribers wait for a sequence above the last they saw.
+    [[nodiscard]] std::vector<std::pair<std::string, std::uint64_t>> sequences() const;
+    void continue_sequences(const std::vector<std::pair<std::string, std::uint64_t>>& sequences);
 
     // Any thread (systemd's status line).
     [[nodiscard]] std::size_t drives_online() const noexcept { return online_.load(std::memory_order_relaxed); }

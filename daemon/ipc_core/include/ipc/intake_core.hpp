@@ -123,6 +123,22 @@ public:
         return a;
     }
 
+    // The bus has ended (a reload restarts it) and answered all it will: every request still
+    // booked is answered refused, bus down.
+    std::vector<Answer> abandon() {
+        std::vector<Answer> out;
+        for (const auto id : book_.ids()) {
+            master::Finished f;
+            f.id = id;
+            f.refusal = master::Refusal::BusDown;
+            f.outcome = master::Outcome::BusDown;
+            if (auto a = finish(f)) {
+                out.push_back(std::move(*a));
+            }
+        }
+        return out;
+    }
+
     // Drives whose lease snapshot changed since the last call.
     std::vector<std::size_t> take_republish() { return std::exchange(republish_, {}); }
     [[nodiscard]] const PendingBook<Route>& book() const noexcept { return book_; }

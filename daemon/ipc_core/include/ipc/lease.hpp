@@ -43,6 +43,15 @@ struct LeaseDecision {
     std::uint32_t lease_ms = 0;  // granted length when allowed
 };
 
+// A held lease taken from one LeaseTable to another: a bus restarted by a reload keeps its
+// holders, their tokens and their deadlines, drive by drive.
+struct HeldLease {
+    std::size_t drive = 0;
+    Holder holder;
+    LeaseToken token{};
+    rtu::Instant expires{};
+};
+
 struct Expiry {
     std::size_t drive = 0;
     Holder holder;
@@ -73,6 +82,12 @@ public:
 
     [[nodiscard]] shm::LeaseStatus status(std::size_t drive) const;
     [[nodiscard]] std::uint64_t expiries() const noexcept { return expiries_; }
+
+    // The leases held now (live or run out but not yet expired), by drive.
+    [[nodiscard]] std::vector<HeldLease> held() const;
+    // Holds `lease` on its drive as it was held: same holder, token and deadline; this table's
+    // length and fallback apply from its next renewal and at its expiry.
+    void adopt(const HeldLease& lease);
 
 private:
     struct Lease {

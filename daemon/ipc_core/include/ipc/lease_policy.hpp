@@ -41,6 +41,11 @@ struct FallbackAction {
     std::optional<rtu::RequestAdu> write;  // none for `hold`
 };
 
+struct CarriedLease {
+    std::string drive;  // the drive's name: a reload may renumber the drives
+    HeldLease lease;
+};
+
 class LeasePolicy {
 public:
     LeasePolicy(const config::BusConfig& bus, TokenSource tokens);
@@ -59,6 +64,13 @@ public:
     [[nodiscard]] std::optional<rtu::Instant> next_deadline() const { return table_.next_deadline(); }
     [[nodiscard]] shm::LeaseStatus status(std::size_t drive) const { return table_.status(drive); }
     [[nodiscard]] std::uint64_t expiries() const noexcept { return table_.expiries(); }
+
+    // A reload that restarts the bus: the leases held now, by drive name, to be adopted by the
+    // restarted bus's policy.
+    [[nodiscard]] std::vector<CarriedLease> carry() const;
+    // Adopts each carried lease whose drive this bus still has (by name); the others are
+    // dropped, each with a line: a drive removed by the reload has no fallback left to run.
+    std::vector<Note> adopt(const std::vector<CarriedLease>& leases);
 
 private:
     [[nodiscard]] std::string where(std::size_t drive) const;

@@ -12,6 +12,7 @@
 #include <string>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include "drivebus/shm.hpp"
 #include "ipc/admission.hpp"
@@ -88,6 +89,15 @@ public:
     }
 
     [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
+    // Every id booked, in no particular order.
+    [[nodiscard]] std::vector<std::uint64_t> ids() const {
+        std::vector<std::uint64_t> out;
+        out.reserve(entries_.size());
+        for (const auto& [id, entry] : entries_) {
+            out.push_back(id);
+        }
+        return out;
+    }
     [[nodiscard]] std::size_t clients_in_flight() const noexcept { return clients_; }
     [[nodiscard]] std::size_t limit() const noexcept { return limit_; }
 
