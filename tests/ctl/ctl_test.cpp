@@ -16,6 +16,7 @@
 #include <sstream>
 #include <thread>
 
+#include "cannot_run.hpp"
 #include "read_json.hpp"
 #include "stack.hpp"
 
@@ -394,7 +395,7 @@ bool row_online(const std::string& screen, const std::string& drive) {
 
 TEST(CtlStack, WatchRefreshesInPlaceInATerminalAndQuitsOnQ) {
     if (!fs::exists("/usr/bin/tmux")) {
-        GTEST_SKIP() << "tmux is not installed (scripts/setup installs it)";
+        CANNOT_RUN() << "tmux is not installed (scripts/setup installs it)";
     }
     Stack stack(unpaced());
     TmuxSession tmux(std::string(DRIVEBUSCTL_PATH) + " --bus " + stack.bus() + " watch");

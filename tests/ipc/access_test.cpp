@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "cannot_run.hpp"
 #include "sim_process.hpp"
 
 namespace drivebus::test {
@@ -138,7 +139,7 @@ protected:
 
     void SetUp() override {
         if (::geteuid() != 0) {
-            GTEST_SKIP() << "needs root to create the test users and switch to them";
+            CANNOT_RUN() << "needs root to create the test users and switch to them";
         }
         for (const auto* g : {kWatch, kControl, kDaemonGroup}) {
             ensure_group(g);
@@ -320,7 +321,7 @@ TEST_F(Access, AnOperatorWatchesAndCommands) {
 TEST(StaleRouDi, TheDaemonSaysWhatToRemove) {
     const RemoveCreated remove_at_end;
     if (::geteuid() != 0) {
-        GTEST_SKIP() << "needs root to leave root's files and run drivebusd as another user";
+        CANNOT_RUN() << "needs root to leave root's files and run drivebusd as another user";
     }
     for (const auto* g : {kWatch, kControl, kDaemonGroup}) {
         ensure_group(g);
