@@ -4,6 +4,8 @@
 //   drivebusctl [--bus NAME] [--json] [--timeout DURATION] [--profile-dir DIR] COMMAND ...
 //     list | status [DRIVE] | read DRIVE REG [COUNT] | write DRIVE REG VALUE... [--take-over]
 //     identify DRIVE | watch [--interval DURATION] | scan [--from A] [--to B] [--register R]
+//     udev-rule [DEVICE] [--name N] [--group G] [--by-path] [--start UNIT] [--properties FILE]...
+//               [--gpio-chip CHIP]... [--config FILE]      (needs no drivebusd)
 //
 // Exit status: 0 ok, 1 the drive failed the request, 2 usage, 3 rejected or unsupported,
 // 4 not permitted, 5 drivebusd or the bus unavailable, 6 queue full, 7 timed out and withdrawn
@@ -16,6 +18,7 @@
 #include "commands.hpp"
 #include "drivebus/version.hpp"
 #include "format.hpp"
+#include "udev_command.hpp"
 
 using namespace drivebus;
 
@@ -91,6 +94,30 @@ int main(int argc, char** argv) {
     scan->add_option("--to", to, "last address (default 32)");
     scan->add_option("--register", probe_register, "the register each probe reads (default 0)");
 
+    ctl::UdevRuleArgs udev;
+    auto* udev_rule = app.add_subcommand(
+        "udev-rule", "print a udev rule that names one adapter, and gives GPIO chips to drivebusd (no daemon needed)");
+    udev_rule->add_option(
+        "DEVICE", udev.device,
+        "the adapter's or chip's device: /dev/ttyUSB0, ttyAMA0, /dev/serial/by-id/..., /dev/gpiochip0");
+    udev_rule->add_option("--name", udev.choice.name, "the stable name, /dev/drivebus/NAME (default rs485-0)");
+    udev_rule->add_option("--group", udev.choice.group, "the port's group (default drivebusd, the daemon's own)");
+    udev_rule->add_flag("--by-path", udev.choice.by_path,
+                        "USB: name the adapter by the USB port it is plugged into, not by its serial number");
+    udev_rule->add_option("--start", udev.choice.start_unit,
+                          "start this unit when the adapter appears (ENV{SYSTEMD_WANTS}); default: none");
+    udev_rule
+        ->add_option("--properties", udev.properties,
+                     "read a device's properties from FILE (udevadm info --query=property output) instead of udev")
+        ->expected(1)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    udev_rule
+        ->add_option("--gpio-chip", udev.gpio_chips, "also give this GPIO chip (gpiochipN or label) to group drivebusd")
+        ->expected(1)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    udev_rule->add_option("--config", udev.config,
+                          "also give the GPIO chip of each direction = \"gpio\" bus of this drivebusd.toml");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -103,6 +130,9 @@ int main(int argc, char** argv) {
         return usage_error(options, e.what());
     }
 
+    if (udev_rule->parsed()) {
+        return ctl::run_udev_rule(udev);
+    }
     int bad = 0;
     if (!duration(options, "--timeout", timeout, options.timeout, bad)) {
         return bad;
