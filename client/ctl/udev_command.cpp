@@ -62,7 +62,8 @@ Result<Properties> file_properties(const std::string& path) {
 
 // The device's properties from udev's database, as `udevadm info --query=property` prints them.
 // DRIVER, when the device has none, is the nearest parent's (what udev's DRIVERS== looks at):
-// the usb-serial or platform driver of a tty.
+// the usb-serial or platform driver of a tty. A device udev has not processed (no udevd, as in
+// some containers) has no ID_ properties: a USB adapter is then refused for want of them.
 Result<Properties> device_properties(std::string devname) {
     if (devname.find('/') == std::string::npos) {
         devname = "/dev/" + devname;
@@ -91,11 +92,6 @@ Result<Properties> device_properties(std::string devname) {
             }
             child = parent;
         }
-    }
-    if (sd_device_get_is_initialized(device.get()) <= 0) {
-        std::fprintf(stderr,
-                     "drivebusctl: udev-rule: warning: udev has not processed %s: its ID_ properties are missing\n",
-                     devname.c_str());
     }
     return out;
 }
