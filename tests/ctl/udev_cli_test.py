@@ -4,7 +4,10 @@
 status, stdout and stderr, and every file it prints through the deploy rule checker
 (tests/deploy/check_udev_rules.py). No drivebusd or RouDi runs: the command needs neither.
 
-usage: udev_cli_test.py DRIVEBUSCTL CHECK_UDEV_RULES SAMPLES_DIR EXAMPLES_DIR
+The example udev/60-drivebus-rs485-0.rules.example must be, after its first comment
+lines, what the program prints for the FT232R sample.
+
+usage: udev_cli_test.py DRIVEBUSCTL CHECK_UDEV_RULES SAMPLES_DIR EXAMPLES_DIR RULES_EXAMPLE
 """
 import os
 import subprocess
@@ -25,9 +28,9 @@ def expect(cond, what):
 
 
 def main(argv):
-    if len(argv) != 5:
+    if len(argv) != 6:
         sys.exit(__doc__)
-    ctl, checker, samples, examples = argv[1:]
+    ctl, checker, samples, examples, rules_example = argv[1:]
     s = lambda name: os.path.join(samples, name + ".properties")  # noqa: E731
 
     # Accepted: (arguments, parts stdout must hold).
@@ -94,6 +97,13 @@ def main(argv):
         lines = p.stderr.splitlines()
         expect(len(lines) == 1 and lines[0].startswith("drivebusctl: ") and part in lines[0],
                f"{what}: stderr {p.stderr!r} is not one line with {part!r}")
+
+    with open(rules_example, encoding="utf-8") as f:
+        example = f.read()
+    generated = run(ctl, "--properties", s("ft232r")).stdout
+    head = example.split("\n# /etc/udev/rules.d/", 1)[0]
+    expect(example == head + "\n" + generated,
+           f"{rules_example} is not the output for ft232r.properties after its {head.count(chr(10)) + 1} first lines")
 
     print(f"udev-rule: {len(accepted)} accepted, {len(refused)} refused; "
           f"{'OK' if not failures else f'{len(failures)} failure(s)'}")
