@@ -86,7 +86,12 @@ Result<Properties> device_properties(std::string devname) {
         sd_device* parent = nullptr;
         while (sd_device_get_parent(child, &parent) >= 0) {
             const char* driver = nullptr;
-            if (sd_device_get_driver(parent, &driver) >= 0 && driver != nullptr) {
+            const char* subsystem = nullptr;
+            // Linux 6.5 and later put the serial core's own devices (drivers "port", "ctrl", bus
+            // serial-base) between a UART's tty and its hardware: the driver of interest is above.
+            const bool serial_core = sd_device_get_subsystem(parent, &subsystem) >= 0 && subsystem != nullptr &&
+                                     std::string_view(subsystem) == "serial-base";
+            if (!serial_core && sd_device_get_driver(parent, &driver) >= 0 && driver != nullptr) {
                 out["DRIVER"] = driver;
                 break;
             }
