@@ -346,9 +346,12 @@ Result<std::vector<std::string>> chip_rules(const GpioChip& chip) {
             return std::unexpected(*e);
         }
     }
-    const auto requested = chip.uses.empty()       ? std::string("only the gpio_line of its configuration")
-                           : chip.uses.size() == 1 ? fmt::format("only line {}", chip.uses.front().line)
-                                                   : std::string("only the lines above");
+    std::string requested = "only the lines above";
+    if (chip.uses.empty()) {
+        requested = "only the gpio_line of its configuration";
+    } else if (chip.uses.size() == 1) {
+        requested = fmt::format("only line {}", chip.uses.front().line);
+    }
     lines.push_back(
         fmt::format("# Group {}: only drivebusd is in it. drivebusd requests {};", kDaemonGroup, requested));
     lines.emplace_back("# the kernel gives access to a whole chip, not to single lines, so the group could request");
@@ -432,7 +435,7 @@ std::optional<RuleError> check_choice(const PortChoice& choice) {
     }
     const auto& group = choice.group;
     if (group.empty() || group.size() > 32 ||
-        !(std::islower(static_cast<unsigned char>(group.front())) || group.front() == '_') ||
+        (std::islower(static_cast<unsigned char>(group.front())) == 0 && group.front() != '_') ||
         !std::ranges::all_of(group, [](char c) { return lower_alnum(c) || c == '_' || c == '-'; })) {
         return error(RuleErrorKind::Usage,
                      fmt::format("--group {}: a group name is 1 to 32 of a-z 0-9 _ - and starts with a letter or '_'",
@@ -603,7 +606,7 @@ Result<std::string> rules_file(const std::optional<Properties>& port, const Port
     add("#   sudo udevadm control --reload");
     add(fmt::format("#   sudo udevadm trigger --action=change{}{}", port_part ? " --subsystem-match=tty" : "",
                     merged.empty() ? "" : " --subsystem-match=gpio"));
-    if (port_part) {
+    if (port_part && port) {
         const auto devname = property(*port, "DEVNAME");
         add(fmt::format(
             "# Check: ls -l /dev/drivebus/; udevadm test $(udevadm info -q path -n {}) 2>&1 | grep drivebus",
