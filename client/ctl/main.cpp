@@ -15,9 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "as_root.hpp"
 #include "commands.hpp"
 #include "drivebus/version.hpp"
 #include "format.hpp"
+#include "steps.hpp"
 #include "udev_command.hpp"
 
 using namespace drivebus;
@@ -136,6 +138,12 @@ int main(int argc, char** argv) {
     int bad = 0;
     if (!duration(options, "--timeout", timeout, options.timeout, bad)) {
         return bad;
+    }
+    // Every other command connects to drivebusd: root does it as an ordinary user (as_root.hpp).
+    if (const auto became = ctl::leave_root(); !became) {
+        return ctl::report(options, ctl::error_of(ErrorKind::NotPermitted,
+                                                  "run by root, drivebusctl acts as an ordinary user and found none: " +
+                                                      became.error() + "; run it as a member of drivebus's groups"));
     }
     if (list->parsed()) {
         return ctl::run_list(options);

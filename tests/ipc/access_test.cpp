@@ -229,6 +229,33 @@ TEST_F(Access, DrivebusctlReadsAViewersPolledRegisterFromTheSnapshot) {
     EXPECT_EQ(refused, 4) << refused_out;
 }
 
+// Root needs no sg: drivebusctl run by root acts as the user who ran sudo (SUDO_USER), with
+// that user's rights, or else as the RouDi's own user, which may watch.
+TEST_F(Access, RootUsesDrivebusctlWithoutSg) {
+    const auto [polled, polled_out] =
+        run_program({"/usr/bin/env", "-u", "SUDO_USER", DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FD00"});
+    EXPECT_EQ(polled, 0) << polled_out;
+    EXPECT_NE(polled_out.find("from the snapshot"), std::string::npos) << polled_out;
+    const auto [listed, listed_out] = run_program({"/usr/bin/env", "-u", "SUDO_USER", DRIVEBUSCTL_PATH, "list"});
+    EXPECT_EQ(listed, 0) << listed_out;
+    EXPECT_NE(listed_out.find(bus_), std::string::npos) << listed_out;
+    // sudo by an operator: a register nobody polls, read through a request.
+    const auto [asked, asked_out] = run_program({"/usr/bin/env", std::string("SUDO_USER=") + kOperator,
+                                                 DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FE03"});
+    EXPECT_EQ(asked, 0) << asked_out;
+    EXPECT_EQ(asked_out.find("from the snapshot"), std::string::npos) << asked_out;
+    // sudo by a viewer: the viewer's rights, not root's.
+    const auto [refused, refused_out] = run_program(
+        {"/usr/bin/env", std::string("SUDO_USER=") + kViewer, DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FE03"});
+    EXPECT_EQ(refused, 4) << refused_out;
+    EXPECT_NE(refused_out.find("dbt-control"), std::string::npos) << refused_out;
+    // A SUDO_USER that is nobody: one line, nothing done.
+    const auto [nobody, nobody_out] = run_program(
+        {"/usr/bin/env", "SUDO_USER=dbt-nobody-here", DRIVEBUSCTL_PATH, "--bus", bus_, "read", "pump", "FD00"});
+    EXPECT_EQ(nobody, 4) << nobody_out;
+    EXPECT_NE(nobody_out.find("SUDO_USER dbt-nobody-here is not a user"), std::string::npos) << nobody_out;
+}
+
 TEST_F(Access, TheSharedMemoryRefusesAViewerThatAsksIcoryxDirectly) {
     // raw_request skips libdrivebus's group check and asks iceoryx for a request chunk, to
     // write FA51 = 888: RouDi has no writable segment for the viewer.
