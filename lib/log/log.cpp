@@ -2,11 +2,15 @@
 #include "log/log.hpp"
 
 #include <poll.h>
+#include <sys/stat.h>
+#include <systemd/sd-journal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -21,6 +25,7 @@ std::string g_program = "drivebusd";
 std::atomic<Level> g_max{Level::Info};
 bool g_journal = false;
 thread_local Ring* t_ring = nullptr;
+thread_local Fields t_fields;
 
 std::string_view name_of(Level level) {
     switch (level) {
@@ -38,22 +43,130 @@ bool is_control(char c) noexcept {
     return u < 0x20 || u == 0x7F;
 }
 
-void print(Level level, std::string_view raw) {
+class StandardBackend final : public Backend {
+public:
+    int send(std::span<const iovec> fields) noexcept override {
+        return sd_journal_sendv(fields.data(), static_cast<int>(fields.size()));
+    }
+    void print(std::string_view line) noexcept override { (void)std::fwrite(line.data(), 1, line.size(), stderr); }
+};
+
+StandardBackend g_standard;
+std::atomic<Backend*> g_backend{&g_standard};
+
+// With g_mutex held.
+void print_line(Backend& backend, Level level, std::string_view message, bool journal_prefix) {
+    std::string line;
+    if (journal_prefix) {
+        line = "<" + std::to_string(static_cast<int>(level)) + ">";
+    } else {
+        line = g_program + ": " + std::string(name_of(level)) + ": ";
+    }
+    line += message;
+    line += '\n';
+    backend.print(line);
+}
+
+void print(const Entry& raw) {
     std::string escaped;
-    std::string_view message = raw;
-    if (std::ranges::any_of(raw, is_control)) {
-        escaped = one_line(raw);
-        message = escaped;
+    Entry entry = raw;
+    if (std::ranges::any_of(raw.message, is_control)) {
+        escaped = one_line(raw.message);
+        entry.message = escaped;
     }
     const std::lock_guard lock(g_mutex);
+    Backend& backend = *g_backend.load(std::memory_order_relaxed);
     if (g_journal) {
-        std::fprintf(stderr, "<%d>%.*s\n", static_cast<int>(level), static_cast<int>(message.size()), message.data());
-    } else {
-        const auto name = name_of(level);
-        std::fprintf(stderr, "%s: %.*s: %.*s\n", g_program.c_str(), static_cast<int>(name.size()), name.data(),
-                     static_cast<int>(message.size()), message.data());
+        const auto fields = journal_fields(g_program, entry);
+        std::vector<iovec> vectors;
+        vectors.reserve(fields.size());
+        for (const auto& f : fields) {
+            // NOLINTNEXTLINE(cppcoreguidelines-pro-type-const-cast): iovec's base is not const
+            vectors.push_back(iovec{const_cast<char*>(f.data()), f.size()});
+        }
+        if (backend.send(vectors) >= 0) {
+            return;
+        }
+        // journald refused it (gone, full): the line still goes out, on the stream.
     }
+    print_line(backend, entry.level, entry.message, g_journal);
 }
+
+void set_field(std::string_view name, std::string_view value, std::vector<std::string>& out) {
+    std::string field;
+    field.reserve(name.size() + 1 + value.size());
+    field += name;
+    field += '=';
+    field += value;
+    out.push_back(std::move(field));
+}
+
+}  // namespace
+
+bool is_journal_stream(const char* journal_stream, std::uint64_t device, std::uint64_t inode) noexcept {
+    if (journal_stream == nullptr) {
+        return false;
+    }
+    const std::string_view text(journal_stream);
+    const auto colon = text.find(':');
+    if (colon == std::string_view::npos) {
+        return false;
+    }
+    const auto number = [](std::string_view digits) -> std::optional<std::uint64_t> {
+        std::uint64_t value = 0;
+        const auto* end = digits.data() + digits.size();
+        const auto [at, ec] = std::from_chars(digits.data(), end, value);
+        if (digits.empty() || ec != std::errc{} || at != end) {
+            return std::nullopt;
+        }
+        return value;
+    };
+    const auto dev = number(text.substr(0, colon));
+    const auto ino = number(text.substr(colon + 1));
+    return dev && ino && *dev == device && *ino == inode;
+}
+
+std::vector<std::string> journal_fields(std::string_view program, const Entry& entry) {
+    std::vector<std::string> out;
+    out.reserve(8);
+    set_field("MESSAGE", one_line(entry.message), out);
+    set_field("PRIORITY", std::to_string(static_cast<int>(entry.level)), out);
+    set_field("SYSLOG_IDENTIFIER", program, out);
+    if (!entry.fields.bus.empty()) {
+        set_field("BUS", entry.fields.bus, out);
+    }
+    if (!entry.fields.drive.empty()) {
+        set_field("DRIVE", entry.fields.drive, out);
+    }
+    if (const std::string_view file = entry.where.file_name(); !file.empty()) {
+        set_field("CODE_FILE", file, out);
+        set_field("CODE_LINE", std::to_string(entry.where.line()), out);
+    }
+    if (const std::string_view function = entry.where.function_name(); !function.empty()) {
+        set_field("CODE_FUNC", function, out);
+    }
+    return out;
+}
+
+void set_backend(Backend* backend) noexcept {
+    const std::lock_guard lock(g_mutex);
+    g_backend.store(backend != nullptr ? backend : &g_standard, std::memory_order_relaxed);
+}
+
+bool to_journal() noexcept {
+    const std::lock_guard lock(g_mutex);
+    return g_journal;
+}
+
+ThreadFields::ThreadFields(const Fields& fields) noexcept : previous_(t_fields) {
+    t_fields = fields;
+}
+
+ThreadFields::~ThreadFields() {
+    t_fields = previous_;
+}
+
+namespace {
 
 // The thread that writes what the rings hold. Started with the first ring; the rings'
 // threads only write its eventfd, they never take its mutex.
@@ -114,7 +227,10 @@ void init(std::string_view program, Level max) {
     const std::lock_guard lock(g_mutex);
     g_program = program;
     g_max = max;
-    g_journal = std::getenv("JOURNAL_STREAM") != nullptr;
+    struct stat err{};
+    // NOLINTNEXTLINE(concurrency-mt-unsafe): read once, at start-up
+    const char* stream = std::getenv("JOURNAL_STREAM");
+    g_journal = ::fstat(STDERR_FILENO, &err) == 0 && is_journal_stream(stream, err.st_dev, err.st_ino);
 }
 
 bool enabled(Level level) noexcept {
@@ -138,17 +254,19 @@ std::string one_line(std::string_view message) {
     return out;
 }
 
-void write(Level level, std::string_view message) {
+void write(Level level, std::string_view message, const Fields& fields, std::source_location where) {
     if (!enabled(level)) {
         return;
     }
+    const Fields merged{fields.bus.empty() ? t_fields.bus : fields.bus,
+                        fields.drive.empty() ? t_fields.drive : fields.drive};
     if (t_ring != nullptr) {
-        if (t_ring->put(level, message)) {
+        if (t_ring->put(level, message, merged, where)) {
             drainer().poke();
         }
         return;
     }
-    print(level, message);
+    print(Entry{level, message, merged, where});
 }
 
 Ring::Ring(std::size_t capacity, bool drained) : lines_(capacity), drained_(drained) {
@@ -167,11 +285,16 @@ void Ring::use_on_this_thread() noexcept {
     t_ring = this;
 }
 
-bool Ring::put(Level level, std::string_view message) noexcept {
+bool Ring::put(Level level, std::string_view message, const Fields& fields, std::source_location where) noexcept {
     RingLine line;
     line.level = level;
+    line.where = where;
     line.length = static_cast<std::uint16_t>(std::min(message.size(), line.text.size()));
     std::copy_n(message.begin(), line.length, line.text.begin());
+    line.bus_length = static_cast<std::uint8_t>(std::min(fields.bus.size(), line.bus.size()));
+    std::copy_n(fields.bus.begin(), line.bus_length, line.bus.begin());
+    line.drive_length = static_cast<std::uint8_t>(std::min(fields.drive.size(), line.drive.size()));
+    std::copy_n(fields.drive.begin(), line.drive_length, line.drive.begin());
     if (!lines_.try_push(line)) {
         dropped_.fetch_add(1, std::memory_order_relaxed);
         return false;
@@ -182,16 +305,21 @@ bool Ring::put(Level level, std::string_view message) noexcept {
 void Ring::drain() {
     RingLine line;
     while (lines_.try_pop(line)) {
-        print(line.level, std::string_view(line.text.data(), line.length));
+        print(Entry{line.level, std::string_view(line.text.data(), line.length),
+                    Fields{std::string_view(line.bus.data(), line.bus_length),
+                           std::string_view(line.drive.data(), line.drive_length)},
+                    line.where});
     }
     if (const auto dropped = dropped_.load(std::memory_order_relaxed); dropped != dropped_reported_) {
-        print(Level::Warning, std::to_string(dropped - dropped_reported_) +
-                                  " log lines of a real-time thread dropped: its log ring was full");
+        const std::string text = std::to_string(dropped - dropped_reported_) +
+                                 " log lines of a real-time thread dropped: its log ring was full";
+        print(Entry{Level::Warning, text, {}, std::source_location::current()});
         dropped_reported_ = dropped;
     }
 }
 
-void RateLimited::write(Level level, const std::string& key, std::string_view message) {
+void RateLimited::write(Level level, const std::string& key, std::string_view message, const Fields& fields,
+                        std::source_location where) {
     const auto now = std::chrono::steady_clock::now();
     std::uint64_t suppressed = 0;
     {
@@ -205,9 +333,9 @@ void RateLimited::write(Level level, const std::string& key, std::string_view me
         it->second = Entry{now, 0};
     }
     if (suppressed > 0) {
-        log::write(level, std::string(message) + " (and " + std::to_string(suppressed) + " more times)");
+        log::write(level, std::string(message) + " (and " + std::to_string(suppressed) + " more times)", fields, where);
     } else {
-        log::write(level, message);
+        log::write(level, message, fields, where);
     }
 }
 
