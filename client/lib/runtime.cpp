@@ -8,13 +8,16 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <thread>
 
 #include "bus_impl.hpp"
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/service_discovery.hpp"
+#include "log/stream_lines.hpp"
 #include "sys/local.hpp"
 
 namespace drivebus {
@@ -31,6 +34,25 @@ std::string group_of(const char* path) {
         }
     }
     return "drivebus";
+}
+
+// iceoryx prints on std::clog and std::cerr, with colour escapes: its runtime's complaints when
+// drivebusd has gone (a failed keep-alive every few hundred milliseconds, a failed goodbye at
+// exit), which the library reports itself in its errors. Those lines are kept off the
+// application's terminal; everything else written on the two streams passes through as it was
+// written. DRIVEBUS_ICEORYX_LOG=1 leaves the streams alone.
+void keep_iceoryx_lines_off_the_terminal() {
+    // NOLINTNEXTLINE(concurrency-mt-unsafe): read once, under the runtime's call_once
+    if (const char* keep = std::getenv("DRIVEBUS_ICEORYX_LOG"); keep != nullptr && std::string_view(keep) == "1") {
+        return;
+    }
+    const auto filter = [](std::ostream& stream) {
+        // Never destroyed: iceoryx's runtime writes from its static destructor at exit.
+        // NOLINTNEXTLINE(cppcoreguidelines-owning-memory)
+        stream.rdbuf(new log::LineRouter(log::is_iceoryx_line, stream.rdbuf(), log::may_become_iceoryx_line));
+    };
+    filter(std::clog);
+    filter(std::cerr);
 }
 
 }  // namespace
@@ -108,6 +130,7 @@ std::expected<void, Error> ensure_runtime(const std::string& application) {
                                                                        " in its unit"));
     }
     std::call_once(once, [&] {
+        keep_iceoryx_lines_off_the_terminal();
         iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kError,
                                                                  iox::log::LogLevelOutput::kHideLogLevel);
         const auto name = runtime_name(application);

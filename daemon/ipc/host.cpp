@@ -23,6 +23,7 @@
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
 #include "ipc/leftovers.hpp"
 #include "ipc/seal.hpp"
+#include "log/log.hpp"
 #include "sys/local.hpp"
 #include "sys/posix.hpp"
 
@@ -91,11 +92,11 @@ void on_iceoryx_error(const iox::Error error, const std::function<void()>& callb
         callback();
     }
     if (level == iox::ErrorLevel::FATAL) {
-        std::fprintf(stderr, "<3>drivebusd: iceoryx: fatal error %s\n", iox::ErrorHandler::toString(error));
+        log::error(fmt::format("iceoryx: fatal error {}", iox::ErrorHandler::toString(error)));
         std::fflush(stderr);
         std::_Exit(1);
     }
-    std::fprintf(stderr, "<4>drivebusd: iceoryx: %s\n", iox::ErrorHandler::toString(error));
+    log::warning(fmt::format("iceoryx: {}", iox::ErrorHandler::toString(error)));
 }
 
 }  // namespace
@@ -207,6 +208,10 @@ bool roudi_running() {
 
 std::expected<std::unique_ptr<Host>, std::string> Host::start(const config::Config& config, const std::string& name) {
     static auto handler = iox::ErrorHandler::setTemporaryErrorHandler(on_iceoryx_error);
+    // iceoryx prints on std::clog, std::cerr and (its RouDi) std::cout, with colour escapes:
+    // from here on those lines go through drivebusd's log, and stdout stays empty. Its logger
+    // says nothing under warnings.
+    log::route_standard_streams();
     iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kWarn,
                                                              iox::log::LogLevelOutput::kHideLogLevel);
     auto layout = plan_layout(config);

@@ -10,10 +10,12 @@
 #include <charconv>
 #include <cstdio>
 #include <cstdlib>
+#include <iostream>
 #include <optional>
 #include <thread>
 #include <vector>
 
+#include "log/stream_lines.hpp"
 #include "sys/event_fd.hpp"
 #include "sys/posix.hpp"
 
@@ -146,6 +148,40 @@ std::vector<std::string> journal_fields(std::string_view program, const Entry& e
         set_field("CODE_FUNC", function, out);
     }
     return out;
+}
+
+void route_standard_streams() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        const auto route = [](std::ostream& stream, Level others) {
+            const auto on_line = [others](std::string_view line) {
+                const std::source_location nowhere{};  // not a place in drivebus's code
+                if (auto message = parse_iceoryx_message(line)) {
+                    const auto level = static_cast<Level>(
+                        std::clamp(message->priority, static_cast<int>(Level::Error), static_cast<int>(Level::Debug)));
+                    write(level, "iceoryx: " + message->text, {}, nowhere);
+                    return true;
+                }
+                std::string plain = without_escapes(line);
+                plain.erase(plain.find_last_not_of(" \t\r") + 1);
+                if (plain.empty()) {
+                    return true;
+                }
+                if (is_iceoryx_line(line)) {
+                    write(Level::Warning, "iceoryx: " + plain, {}, nowhere);
+                } else {
+                    write(others, plain, {}, nowhere);
+                }
+                return true;
+            };
+            // Never destroyed: iceoryx writes from static destructors at exit, and the standard
+            // streams are flushed after every static object is gone.
+            stream.rdbuf(new LineRouter(on_line));  // NOLINT(cppcoreguidelines-owning-memory)
+        };
+        route(std::cout, Level::Debug);
+        route(std::clog, Level::Debug);
+        route(std::cerr, Level::Warning);
+    });
 }
 
 void set_backend(Backend* backend) noexcept {

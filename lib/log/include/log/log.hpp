@@ -61,6 +61,14 @@ void write(Level level, std::string_view message, const Fields& fields = {},
 // Whether a message at `level` would be written (check before building an expensive one).
 [[nodiscard]] bool enabled(Level level) noexcept;
 
+// From now on, whatever other code writes on std::cout, std::clog and std::cerr goes through
+// this log a line at a time, without escapes (log/stream_lines.hpp): iceoryx's messages at
+// their own priority, with "iceoryx: " before them; iceoryx's failed system calls and other
+// std::cerr lines as warnings; other std::clog and std::cout lines (iceoryx's shared memory
+// set-up, its RouDi's "RouDi is ready for clients") at debug. Nothing reaches stdout through
+// them any more: call it once the command line's own output (--version, --check-config) is out.
+void route_standard_streams();
+
 // Whether stderr is the journal: `journal_stream` (JOURNAL_STREAM, "DEVICE:INODE" in decimal,
 // which systemd sets for a unit whose stdout or stderr it connects to the journal) names the
 // device and inode of stderr. Null or malformed: false.
