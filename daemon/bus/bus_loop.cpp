@@ -39,6 +39,7 @@ std::expected<void, std::string> BusLoop::start() {
         // Named so that top -H and /proc/PID/task/*/comm tell the bus threads apart.
         (void)::pthread_setname_np(::pthread_self(), ("bus " + bus_.name).substr(0, 15).c_str());
         log_.use_on_this_thread();
+        const log::ThreadFields fields({.bus = bus_.name});  // BUS= on every line of this thread
         if (options_.realtime && options_.realtime->mode != config::RealtimeMode::Off) {
             auto rt = rt::make_realtime(options_.realtime->priority, options_.realtime->cpus);
             if (!rt) {

@@ -98,8 +98,9 @@ bool Desk::fallback_finished(std::uint64_t id, const master::Result& r) {
             return true;
         }
         log::error("bus " + bus_.name + " drive " + bus_.drives[d].name +
-                   ": the fallback write was not acknowledged (" + std::string(master::to_string(r.outcome)) +
-                   "); retrying");
+                       ": the fallback write was not acknowledged (" + std::string(master::to_string(r.outcome)) +
+                       "); retrying",
+                   {.bus = bus_.name, .drive = bus_.drives[d].name});
         f.retry = true;
         f.retry_at = r.finished + bus_.response_timeout;  // meanwhile the polls find out whether it is absent
         return false;
@@ -115,8 +116,9 @@ void Desk::retry_fallbacks(rtu::Instant now) {
         }
         f.retry = false;
         if (engine_->scheduler().health(d) == master::Health::Absent) {
-            log::error("bus " + bus_.name + " drive " + bus_.drives[d].name +
-                       ": absent; its fallback write is given up");
+            log::error(
+                "bus " + bus_.name + " drive " + bus_.drives[d].name + ": absent; its fallback write is given up",
+                {.bus = bus_.name, .drive = bus_.drives[d].name});
             master::Result gone;
             gone.finished = now;
             handover_.put(finished(f.request->correlation, gone));

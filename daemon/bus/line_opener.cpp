@@ -23,10 +23,11 @@ std::optional<LineOpener::Line> LineOpener::open(rtu::Instant now) {
         return std::nullopt;
     }
     for (const auto& note : port->tuning()) {
-        log::info("bus " + bus_.name + ": " + port->device().string() + ": " + note);
+        log::info("bus " + bus_.name + ": " + port->device().string() + ": " + note, {.bus = bus_.name});
     }
     log::notice("bus " + bus_.name + ": " + port->device().string() + " open, " + serial::describe(bus_.format) +
-                ", direction " + std::string((*direction)->name()));
+                    ", direction " + std::string((*direction)->name()),
+                {.bus = bus_.name});
     reopen_delay_ = {};
     reopen_at_.reset();
     limiter_.reset("open");
@@ -37,7 +38,8 @@ void LineOpener::failed(const std::string& why, bool gone, rtu::Instant now) {
     reopen_delay_ = reopen_delay_.count() == 0 ? rtu::Duration(100ms) : std::min<rtu::Duration>(reopen_delay_ * 2, 5s);
     reopen_at_ = now + reopen_delay_;
     limiter_.write(log::Level::Error, "open",
-                   "bus " + bus_.name + ": " + why + (gone ? "; bus down, retrying" : "; retrying"));
+                   "bus " + bus_.name + ": " + why + (gone ? "; bus down, retrying" : "; retrying"),
+                   {.bus = bus_.name});
 }
 
 std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_direction(const config::BusConfig& bus,
@@ -50,7 +52,8 @@ std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_d
             return kernel;
         }
         log::warning("bus " + bus.name + ": " + kernel.error().message + "; falling back to " +
-                     std::string(config::to_string(*bus.kernel_fallback)));
+                         std::string(config::to_string(*bus.kernel_fallback)),
+                     {.bus = bus.name});
         if (*bus.kernel_fallback == config::DirectionMode::Rts) {
             return serial::make_rts_direction(fd, uart);
         }

@@ -205,6 +205,7 @@ std::optional<int> bus_served_elsewhere(const std::string& bus) {
 void BusService::start(const std::function<void()>& on_thread) {
     impl_->thread = std::thread([this, on_thread] {
         (void)::pthread_setname_np(::pthread_self(), ("ipc " + impl_->bus.name).substr(0, 15).c_str());
+        const log::ThreadFields fields({.bus = impl_->bus.name});  // BUS= on every line of this thread
         if (on_thread) {
             on_thread();
         }

@@ -104,7 +104,8 @@ void Publisher::publish(std::size_t drive) {
     s.published_ns = monotonic_ns(sys::now());
     auto sample = channels_->drives[drive]->loan();
     if (sample.has_error()) {
-        log::warning(fmt::format("bus {}: no shared memory for a snapshot", bus_.name));
+        log::warning(fmt::format("bus {}: no shared memory for a snapshot", bus_.name),
+                     {.bus = bus_.name, .drive = bus_.drives[drive].name});
         return;
     }
     std::memcpy(static_cast<void*>(sample.value().get()), &s, sizeof s);
@@ -206,25 +207,29 @@ void Publisher::log_health(std::size_t drive, master::Health before, master::Hea
                            const master::SetupNote& note) {
     const auto& d = bus_.drives[drive];
     const std::string key = bus_.name + "/" + d.name;
+    const log::Fields fields{.bus = bus_.name, .drive = d.name};
     if (now == master::Health::Absent) {
         absent_log_.write(log::Level::Warning, key,
                           fmt::format("bus {} drive {} (address {}): absent, no reply after every retry; probing "
                                       "with back-off",
-                                      bus_.name, d.name, d.address));
+                                      bus_.name, d.name, d.address),
+                          fields);
     } else if (now == master::Health::Unconfigured) {
-        log::error(fmt::format("bus {} drive {}: unconfigured: {}", bus_.name, d.name, setup_problem(d, now, note)));
+        log::error(fmt::format("bus {} drive {}: unconfigured: {}", bus_.name, d.name, setup_problem(d, now, note)),
+                   fields);
     } else if (now == master::Health::AwaitingReset) {
         log::warning(
-            fmt::format("bus {} drive {}: awaiting a reset: {}", bus_.name, d.name, setup_problem(d, now, note)));
+            fmt::format("bus {} drive {}: awaiting a reset: {}", bus_.name, d.name, setup_problem(d, now, note)),
+            fields);
     } else if (now == master::Health::Online && before == master::Health::Absent) {
         absent_log_.reset(key);  // the absence is over: the next one is logged at once
-        log::notice(fmt::format("bus {} drive {}: answering again", bus_.name, d.name));
+        log::notice(fmt::format("bus {} drive {}: answering again", bus_.name, d.name), fields);
     } else if (now == master::Health::Online &&
                (before == master::Health::Unconfigured || before == master::Health::AwaitingReset)) {
-        log::notice(
-            fmt::format("bus {} drive {}: its set-up holds and its blocks return what drivebusd selected: "
-                        "polled",
-                        bus_.name, d.name));
+        log::notice(fmt::format("bus {} drive {}: its set-up holds and its blocks return what drivebusd selected: "
+                                "polled",
+                                bus_.name, d.name),
+                    fields);
     }
 }
 

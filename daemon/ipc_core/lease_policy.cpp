@@ -7,14 +7,18 @@
 
 namespace drivebus::ipc {
 
-void write_note(const std::optional<Note>& note) {
+void write_note(const std::optional<Note>& note, std::source_location where) {
     if (note) {
-        log::write(note->level, note->text);
+        log::write(note->level, note->text, {.drive = note->drive}, where);
     }
 }
 
 LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
     : bus_(bus), table_(bus, std::move(tokens)) {}
+
+std::string LeasePolicy::name(std::size_t drive) const {
+    return bus_.drives.at(drive).name;
+}
 
 std::string LeasePolicy::where(std::size_t drive) const {
     return fmt::format("bus {} drive {}", bus_.name, bus_.drives.at(drive).name);
@@ -62,13 +66,15 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
     if (!d.allowed) {
         a.status = shm::Status::NotPermitted;
         a.holder = d.holder;
-        a.note = Note{log::Level::Info, fmt::format("{}: {} may not command it: {} holds the control lease",
-                                                    where(drive), who.client_name, d.holder.name)};
+        a.note = Note{log::Level::Info,
+                      fmt::format("{}: {} may not command it: {} holds the control lease", where(drive),
+                                  who.client_name, d.holder.name),
+                      name(drive)};
         return a;
     }
     if (d.taken_over) {
-        a.note =
-            Note{log::Level::Notice, fmt::format("{}: {} took the control lease over", where(drive), who.client_name)};
+        a.note = Note{log::Level::Notice,
+                      fmt::format("{}: {} took the control lease over", where(drive), who.client_name), name(drive)};
     }
     a.lease_ms = d.lease_ms;
     a.token = d.token;
@@ -90,12 +96,15 @@ LeaseAction LeasePolicy::release(std::size_t drive, const Origin& who) {
     LeaseAction a;
     if (!table_.release(drive, who.token)) {
         a.status = shm::Status::NotPermitted;
-        a.note = Note{log::Level::Info, fmt::format("{}: {} may not release the control lease: it does not hold it",
-                                                    where(drive), who.client_name)};
+        a.note = Note{
+            log::Level::Info,
+            fmt::format("{}: {} may not release the control lease: it does not hold it", where(drive), who.client_name),
+            name(drive)};
         return a;
     }
     a.republish = true;
-    a.note = Note{log::Level::Info, fmt::format("{}: {} released the control lease", where(drive), who.client_name)};
+    a.note = Note{log::Level::Info, fmt::format("{}: {} released the control lease", where(drive), who.client_name),
+                  name(drive)};
     return a;
 }
 
@@ -105,8 +114,10 @@ std::vector<FallbackAction> LeasePolicy::expire(rtu::Instant now) {
         const auto& d = bus_.drives.at(e.drive);
         FallbackAction f;
         f.drive = e.drive;
-        f.note = Note{log::Level::Warning, fmt::format("{}: the control lease of {} ran out; fallback: {}",
-                                                       where(e.drive), e.holder.name, config::to_string(e.fallback))};
+        f.note = Note{log::Level::Warning,
+                      fmt::format("{}: the control lease of {} ran out; fallback: {}", where(e.drive), e.holder.name,
+                                  config::to_string(e.fallback)),
+                      name(e.drive)};
         if (e.fallback != config::LeaseFallback::Hold && d.profile && d.profile->control) {
             const auto& control = *d.profile->control;
             const auto* command = d.profile->find(control.command);
@@ -128,7 +139,8 @@ LeaseAction LeasePolicy::fallback_done(std::size_t drive, master::Outcome outcom
     if (!ok) {
         a.note = Note{log::Level::Error,
                       fmt::format("{}: the fallback write failed: {}", where(drive),
-                                  refused ? std::string_view("refused by the bus") : master::to_string(outcome))};
+                                  refused ? std::string_view("refused by the bus") : master::to_string(outcome)),
+                      name(drive)};
     }
     return a;
 }

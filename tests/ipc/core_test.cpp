@@ -432,6 +432,7 @@ TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
     const auto fallbacks = p.expire(t0 + 600ms);
     ASSERT_EQ(fallbacks.size(), 1U);
     EXPECT_EQ(fallbacks[0].note.level, log::Level::Warning);
+    EXPECT_EQ(fallbacks[0].note.drive, "pump") << "the journal's DRIVE=";
     ASSERT_TRUE(fallbacks[0].write.has_value());
     EXPECT_EQ(fallbacks[0].write->address, 1);
     EXPECT_EQ(fallbacks[0].write->pdu, rtu::Request(rtu::WriteSingleRegister{0xFA00, 0xC000}));
@@ -442,6 +443,7 @@ TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
     const auto failed = p.fallback_done(0, master::Outcome::Timeout, false);
     ASSERT_TRUE(failed.note.has_value());
     EXPECT_EQ(failed.note->level, log::Level::Error);
+    EXPECT_EQ(failed.note->drive, "pump");
     EXPECT_EQ(p.status(0).fallback_ok, 0);
     EXPECT_FALSE(p.fallback_done(0, master::Outcome::Ok, false).note.has_value());
     EXPECT_EQ(p.status(0).fallback_ok, 1);

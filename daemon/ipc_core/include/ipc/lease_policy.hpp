@@ -21,10 +21,11 @@ namespace drivebus::ipc {
 struct Note {
     log::Level level = log::Level::Info;
     std::string text;
+    std::string drive;  // the drive's name, for the journal's DRIVE= (the text names it too)
 };
 
 // Writes the line, if there is one.
-void write_note(const std::optional<Note>& note);
+void write_note(const std::optional<Note>& note, std::source_location where = std::source_location::current());
 
 struct LeaseAction {
     shm::Status status = shm::Status::Ok;  // Ok: allowed (a write goes on; a renewal is answered Ok)
@@ -74,6 +75,7 @@ public:
 
 private:
     [[nodiscard]] std::string where(std::size_t drive) const;
+    [[nodiscard]] std::string name(std::size_t drive) const;
     const config::BusConfig& bus_;
     LeaseTable table_;
 };
