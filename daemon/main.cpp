@@ -128,7 +128,7 @@ std::expected<RunningBus, std::string> start_bus(const config::BusConfig& settin
     // setting works against exact framing (docs/rs485.md).
     for (const auto& finding : rt::judge(kernel, rt::read_port_facts(serial::tty_name(bus.device)))) {
         log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
-                   "bus " + bus.name + ": " + finding.text);
+                   "bus " + bus.name + ": " + finding.text, {.bus = bus.name});
     }
     // The bus thread and the ipc thread meet only in the loop's hand-over rings.
     bus::LoopOptions loop_options;
@@ -140,7 +140,8 @@ std::expected<RunningBus, std::string> start_bus(const config::BusConfig& settin
         return std::unexpected(started.error() + "; [realtime] mode is required");
     }
     log::notice("bus " + bus.name + ": " + bus.device.string() + ", " + serial::describe(bus.format) + ", " +
-                std::to_string(bus.drives.size()) + " drives");
+                    std::to_string(bus.drives.size()) + " drives",
+                {.bus = bus.name});
     b.service->start([rt, name = bus.name] { service_thread_realtime(rt, name); });
     return b;
 }
@@ -221,7 +222,8 @@ int run_main(int argc, char** argv) {
     for (const auto& b : config->buses) {
         if (const auto pid = ipc::bus_served_elsewhere(b.name)) {
             log::error("bus " + b.name + " is already served by another drivebusd (pid " + std::to_string(*pid) +
-                       "); stop it first, or give this bus another name");
+                           "); stop it first, or give this bus another name",
+                       {.bus = b.name});
             return kExitStartup;
         }
     }
@@ -372,7 +374,8 @@ int run_main(int argc, char** argv) {
             const std::uint64_t beat = b.loop->heartbeat();
             if (const auto it = heartbeats.find(b.config->name); it != heartbeats.end() && beat == it->second) {
                 alive = false;
-                log::error("bus " + b.config->name + ": its event loop has not run for a second");
+                log::error("bus " + b.config->name + ": its event loop has not run for a second",
+                           {.bus = b.config->name});
             }
             heartbeats[b.config->name] = beat;
         }
@@ -409,7 +412,7 @@ int main(int argc, char** argv) {
     try {
         return run_main(argc, argv);
     } catch (const std::exception& e) {
-        std::cerr << "drivebusd: " << e.what() << '\n';
+        log::error(e.what());  // std::cerr goes through the log once iceoryx runs
         return 1;
     }
 }
