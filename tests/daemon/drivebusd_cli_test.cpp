@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <fcntl.h>
 #include <sched.h>
 #include <sys/file.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -405,6 +407,127 @@ TEST_F(DrivebusdCli, SocketsOfKilledClientsAreRemovedAtStart) {
         fs::remove(path, ec);
         fs::remove(path.string() + ".lock", ec);
     }
+}
+
+// A program with its stdout and its stderr in two files, stopped (SIGTERM) when it goes.
+class SplitChild {
+public:
+    SplitChild(const fs::path& dir, const std::string& name, const std::vector<std::string>& argv)
+        : out_(dir / (name + ".out")), err_(dir / (name + ".err")) {
+        pid_ = ::fork();
+        if (pid_ < 0) {
+            throw std::runtime_error("fork failed");
+        }
+        if (pid_ == 0) {
+            ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+            ::dup2(::open(out_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), STDOUT_FILENO);
+            ::dup2(::open(err_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), STDERR_FILENO);
+            std::vector<std::string> copy = argv;
+            std::vector<char*> args;
+            for (auto& a : copy) {
+                args.push_back(a.data());
+            }
+            args.push_back(nullptr);
+            ::execv(args[0], args.data());
+            ::_exit(127);
+        }
+    }
+    ~SplitChild() {
+        if (pid_ > 0) {
+            ::kill(pid_, SIGKILL);
+            ::waitpid(pid_, nullptr, 0);
+        }
+    }
+    SplitChild(const SplitChild&) = delete;
+    SplitChild& operator=(const SplitChild&) = delete;
+    SplitChild(SplitChild&&) = delete;
+    SplitChild& operator=(SplitChild&&) = delete;
+
+    // Its exit status once it has ended by itself within `timeout`; -1 if not (then killed).
+    int wait(std::chrono::milliseconds timeout) {
+        int status = 0;
+        const bool ended = wait_until([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout);
+        if (!ended) {
+            return -1;
+        }
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    }
+    int stop() {
+        ::kill(pid_, SIGTERM);
+        return wait(10s);
+    }
+    [[nodiscard]] std::string out() const { return slurp(out_); }
+    [[nodiscard]] std::string err() const { return slurp(err_); }
+
+private:
+    fs::path out_;
+    fs::path err_;
+    int pid_ = -1;
+};
+
+// Each line of `text` that does not start with `prefix`.
+std::vector<std::string> lines_without(const std::string& text, std::string_view prefix) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+        if (!line.starts_with(prefix)) {
+            out.push_back(line);
+        }
+    }
+    return out;
+}
+
+// drivebusd writes nothing on stdout, and iceoryx's lines (its RouDi's "RouDi is ready for
+// clients" on std::cout, "Reserving ... bytes" on std::clog, its coloured log lines) reach
+// stderr through drivebusd's log: prefixed, without escapes. With --verbose, to see the debug
+// lines they become. A drivebusctl watching when drivebusd stops prints none of iceoryx's lines
+// either (its runtime then complains on every keep-alive and at exit).
+TEST_F(DrivebusdCli, NothingOnStdoutAndIceoryxsLinesGoThroughTheLog) {
+    SimProcess sim({"--drive", "1:atv21"});
+    std::ofstream(dir / "run.toml") << with("/dev/ttyDOESNOTEXIST", sim.link().string());
+    const fs::path socket_path = dir / "notify";
+    sys::UniqueFd sock(::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, socket_path.c_str(), sizeof addr.sun_path - 1);
+    ASSERT_EQ(::bind(sock.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
+    ::setenv("NOTIFY_SOCKET", socket_path.c_str(), 1);
+    SplitChild daemon(dir, "drivebusd", {DRIVEBUSD_PATH, "--config", (dir / "run.toml").string(), "--verbose"});
+    ::unsetenv("NOTIFY_SOCKET");
+    std::string received;
+    const auto ready = [&] {
+        std::array<char, 512> buffer{};
+        for (;;) {
+            const auto n = ::recv(sock.get(), buffer.data(), buffer.size(), 0);
+            if (n <= 0) {
+                break;
+            }
+            received.append(buffer.data(), static_cast<std::size_t>(n)).push_back('\n');
+        }
+        return received.find("READY=1") != std::string::npos;
+    };
+    ASSERT_TRUE(wait_until(ready, 10s)) << daemon.err();
+
+    SplitChild watch(dir, "drivebusctl", {DRIVEBUSCTL_PATH, "--bus", "line1", "watch"});
+    ASSERT_TRUE(wait_until([&] { return watch.out().find("DRIVE") != std::string::npos; }, 10s))
+        << watch.out() << watch.err();
+    EXPECT_EQ(daemon.stop(), 0) << daemon.err();
+    EXPECT_NE(watch.wait(15s), -1) << "drivebusctl watch did not end once drivebusd was gone";
+
+    EXPECT_EQ(daemon.out(), "") << "drivebusd wrote on stdout";
+    const std::string err = daemon.err();
+    EXPECT_EQ(err.find('\x1B'), std::string::npos) << err;
+    EXPECT_EQ(lines_without(err, "drivebusd: "), std::vector<std::string>{}) << "unprefixed lines in:\n" << err;
+    EXPECT_NE(err.find("drivebusd: debug: RouDi is ready for clients\n"), std::string::npos) << err;
+    EXPECT_NE(err.find("drivebusd: debug: Reserving "), std::string::npos) << err;
+    EXPECT_NE(err.find("drivebusd: notice: stopped:"), std::string::npos) << err;
+
+    const std::string ctl = watch.err();
+    EXPECT_EQ(ctl.find('\x1B'), std::string::npos) << ctl;
+    EXPECT_EQ(lines_without(ctl, "drivebusctl: "), std::vector<std::string>{}) << "not drivebusctl's own:\n" << ctl;
+    EXPECT_EQ(ctl.find("iceoryx"), std::string::npos) << ctl;
 }
 
 }  // namespace
