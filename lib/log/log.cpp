@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "log/log.hpp"
 
+// Without it, sd_journal_sendv() is a macro that adds CODE_FILE, CODE_LINE and CODE_FUNC of
+// its own call here to those of the message's.
+#define SD_JOURNAL_SUPPRESS_LOCATION
+#include <systemd/sd-journal.h>
+
 #include <poll.h>
 #include <sys/stat.h>
-#include <systemd/sd-journal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -48,6 +52,11 @@ bool is_control(char c) noexcept {
 class StandardBackend final : public Backend {
 public:
     int send(std::span<const iovec> fields) noexcept override {
+        // sd_journal_sendv() reports success when journald's socket is not there at all
+        // (libsystemd "fails silently" then): the line would be lost.
+        if (::access("/run/systemd/journal/socket", F_OK) != 0) {
+            return -errno;
+        }
         return sd_journal_sendv(fields.data(), static_cast<int>(fields.size()));
     }
     void print(std::string_view line) noexcept override { (void)std::fwrite(line.data(), 1, line.size(), stderr); }
@@ -140,7 +149,12 @@ std::vector<std::string> journal_fields(std::string_view program, const Entry& e
     if (!entry.fields.drive.empty()) {
         set_field("DRIVE", entry.fields.drive, out);
     }
-    if (const std::string_view file = entry.where.file_name(); !file.empty()) {
+    if (std::string_view file = entry.where.file_name(); !file.empty()) {
+        // The build may name sources relative to its own directory ("../../daemon/main.cpp"):
+        // what is left is their place in the source tree.
+        while (file.starts_with("../") || file.starts_with("./")) {
+            file.remove_prefix(file.find('/') + 1);
+        }
         set_field("CODE_FILE", file, out);
         set_field("CODE_LINE", std::to_string(entry.where.line()), out);
     }

@@ -74,9 +74,9 @@ void route_standard_streams();
 // device and inode of stderr. Null or malformed: false.
 [[nodiscard]] bool is_journal_stream(const char* journal_stream, std::uint64_t device, std::uint64_t inode) noexcept;
 // The journal fields of `entry`, "NAME=value" each: MESSAGE (one line, as one_line() makes it),
-// PRIORITY, SYSLOG_IDENTIFIER, then BUS and DRIVE when not empty, CODE_FILE, CODE_LINE and
-// CODE_FUNC when known. Values other than MESSAGE are kept as they are (the native protocol
-// carries newlines).
+// PRIORITY, SYSLOG_IDENTIFIER, then BUS and DRIVE when not empty, CODE_FILE (without leading
+// "../" and "./"), CODE_LINE and CODE_FUNC when known. Values other than MESSAGE are kept as they are (the native
+// protocol carries newlines).
 [[nodiscard]] std::vector<std::string> journal_fields(std::string_view program, const Entry& entry);
 
 // Where the lines go in the end. The default sends to journald and prints on stderr; a test
