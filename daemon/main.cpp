@@ -333,7 +333,7 @@ int run_main(int argc, char** argv) {
             if (!started) {
                 // Only a refused real-time priority, with mode = "required": nothing else differs
                 // from the start, which was granted it.
-                log::error("reload: bus " + settings.name + " not started: " + started.error());
+                log::error("reload: bus " + settings.name + " not started: " + started.error(), {.bus = settings.name});
                 continue;
             }
             buses.push_back(std::move(*started));

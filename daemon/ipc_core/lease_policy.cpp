@@ -41,14 +41,17 @@ std::vector<Note> LeasePolicy::adopt(const std::vector<CarriedLease>& leases) {
             notes.push_back({log::Level::Warning,
                              fmt::format("bus {}: drive {} is no longer configured: the lease {} held on it ends "
                                          "with no fallback",
-                                         bus_.name, c.drive, c.lease.holder.name)});
+                                         bus_.name, c.drive, c.lease.holder.name),
+                             c.drive});
             continue;
         }
         auto lease = c.lease;
         lease.drive = static_cast<std::size_t>(it - bus_.drives.begin());
         table_.adopt(lease);
-        notes.push_back({log::Level::Info, fmt::format("{}: the lease of {} is kept across the reload",
-                                                       where(lease.drive), lease.holder.name)});
+        notes.push_back(
+            {log::Level::Info,
+             fmt::format("{}: the lease of {} is kept across the reload", where(lease.drive), lease.holder.name),
+             c.drive});
     }
     return notes;
 }
