@@ -15,7 +15,7 @@ import sys
 TAG = "SPDX-License-Identifier: Apache-2.0"
 SOURCE = re.compile(
     r"(\.(cpp|hpp|h|c|py|sh|cmake|in|service|rules|conf|toml|map|[1-8])|CMakeLists\.txt|"
-    r"^scripts/[a-z]+|^\.ci/run|^cmake/deb/[a-z]+)$")
+    r"^scripts/[a-z-]+|^\.ci/run|^debian/rules|^debian/[a-z0-9.-]+\.(preinst|postinst|prerm|postrm))$")
 LEFT_OUT = re.compile(r"^(tests/fuzz/corpus/|tests/deploy/bad/)")
 
 
