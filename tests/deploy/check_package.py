@@ -91,8 +91,9 @@ REQUIRED = {
     "drivebusctl": PACKAGES["drivebusctl"],
     "drivebus-sim": PACKAGES["drivebus-sim"],
 }
-# Named by the man pages as the administrator's, not installed: the udev rule of the board.
-ADMIN_PATHS = ("/etc/udev/rules.d/",)
+# Named by the man pages as the administrator's, not installed: the udev rule of the board, and
+# the configuration fragments (the drivebusd package ships their directory, empty).
+ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/")
 CONFFILES = ["/etc/drivebus/drivebusd.toml", "/etc/drivebus/roudi.toml"]
 
 # debhelper's snippets in drivebusd's maintainer scripts (dh_installsysusers,
