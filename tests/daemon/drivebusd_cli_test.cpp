@@ -514,7 +514,10 @@ TEST_F(DrivebusdCli, NothingOnStdoutAndIceoryxsLinesGoThroughTheLog) {
     ASSERT_TRUE(wait_until([&] { return watch.out().find("DRIVE") != std::string::npos; }, 10s))
         << watch.out() << watch.err();
     EXPECT_EQ(daemon.stop(), 0) << daemon.err();
-    EXPECT_NE(watch.wait(15s), -1) << "drivebusctl watch did not end once drivebusd was gone";
+    // It ends: by itself ("daemon gone"), or ended by iceoryx 2.0's runtime, which aborts once
+    // the RouDi's memory is gone (docs/ipc.md, known limit); an abort under a sanitizer takes a
+    // while to report.
+    EXPECT_NE(watch.wait(60s), -1) << "drivebusctl watch did not end once drivebusd was gone";
 
     EXPECT_EQ(daemon.out(), "") << "drivebusd wrote on stdout";
     const std::string err = daemon.err();
@@ -526,7 +529,11 @@ TEST_F(DrivebusdCli, NothingOnStdoutAndIceoryxsLinesGoThroughTheLog) {
 
     const std::string ctl = watch.err();
     EXPECT_EQ(ctl.find('\x1B'), std::string::npos) << ctl;
-    EXPECT_EQ(lines_without(ctl, "drivebusctl: "), std::vector<std::string>{}) << "not drivebusctl's own:\n" << ctl;
+    // Every line is drivebusctl's own, but for glibc's last words when that abort comes from a
+    // futex in the unmapped memory: neither iceoryx's line nor drivebusctl's to filter.
+    auto foreign = lines_without(ctl, "drivebusctl: ");
+    std::erase(foreign, std::string("The futex facility returned an unexpected error code."));
+    EXPECT_EQ(foreign, std::vector<std::string>{}) << "not drivebusctl's own:\n" << ctl;
     EXPECT_EQ(ctl.find("iceoryx"), std::string::npos) << ctl;
 }
 
