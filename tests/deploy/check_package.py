@@ -214,7 +214,8 @@ def main(argv):
                 problems.append(f"{name}: Maintainer {maintainer!r}")
             depends = fields.get("Depends", "")
             wanted_depends = {
-                "drivebusd": [f"drivebus-common (= {version})", "systemd | systemd-standalone-sysusers"],
+                # procps: /bin/kill of the units' ExecReload= (not essential in Debian).
+                "drivebusd": [f"drivebus-common (= {version})", "procps", "systemd | systemd-standalone-sysusers"],
                 "libdrivebus0": [f"drivebus-common (= {version})"],
                 "libdrivebus-dev": [f"libdrivebus0 (= {version})"],
                 "drivebusctl": [f"libdrivebus0 (>= {version})"],
