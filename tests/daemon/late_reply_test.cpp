@@ -145,10 +145,12 @@ void expect_no_wrong_value() {
         } else {
             // Reported as late, not as "did not answer". On a loaded machine the pty's kernel
             // worker can hold every reply of a transaction back past its last wait; the master
-            // then saw nothing and says so, so a few time-outs are honest, but not most.
+            // then saw nothing and says so, so a few time-outs are honest, but not most: at most
+            // one in ten (5-8 in a hundred seen with another build running beside the suite; a
+            // master that took late replies for silence would report nearly all).
             const auto timeouts =
                 t.outcomes.contains(master::Outcome::Timeout) ? t.outcomes.at(master::Outcome::Timeout) : 0;
-            EXPECT_LE(timeouts * 20, kReads) << timeouts << " reads reported the drive as silent";
+            EXPECT_LE(timeouts * 10, kReads) << timeouts << " reads reported the drive as silent";
             EXPECT_GT(t.late, 0U);
         }
     }
