@@ -34,8 +34,12 @@ std::expected<void, SysError> EventLoop::add(int fd, std::function<void(Readines
 }
 
 std::expected<void, SysError> EventLoop::watch_writable(int fd, bool on) {
+    return watch(fd, true, on);
+}
+
+std::expected<void, SysError> EventLoop::watch(int fd, bool readable, bool writable) {
     epoll_event ev{};
-    ev.events = EPOLLIN | (on ? EPOLLOUT : 0U);
+    ev.events = (readable ? EPOLLIN : 0U) | (writable ? EPOLLOUT : 0U);
     ev.data.fd = fd;
     auto ok = posix_call("epoll_ctl", [&] { return ::epoll_ctl(epoll_.get(), EPOLL_CTL_MOD, fd, &ev); });
     if (!ok) {

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Strict reading of TOML tables for the profile parser: typed getters whose errors name the
 // table and the key, and a check that rejects unknown keys. Used by lib/profile/ and by the
-// configuration reader (daemon/config/), nowhere else.
+// configuration readers of drivebusd (daemon/config/) and drivebus-gateway (gateway/config.cpp),
+// so that every file of drivebus reports its errors alike.
 #pragma once
 
 #include <cstdint>

@@ -34,6 +34,10 @@ public:
     // Whether `fd`'s callback is also called when it can be written (EPOLLOUT): for a writer
     // whose output buffer was full, so that it waits in the loop instead of beside it.
     std::expected<void, SysError> watch_writable(int fd, bool on);
+    // Which of readable and writable `fd`'s callback is called for (a hang-up always is): a
+    // reader that may take no more for now (its queue is full) stops watching instead of
+    // being woken again and again by what waits in the kernel.
+    std::expected<void, SysError> watch(int fd, bool readable, bool writable);
     // Runs until stop(); returns the error that ended it, if any.
     std::expected<void, SysError> run();
     void stop() noexcept { running_ = false; }
