@@ -214,34 +214,6 @@ private:
     modbus_t* ctx_ = nullptr;
 };
 
-// ---- the table ----
-
-std::string cell(double v) {
-    if (v >= 10000) {
-        return fmt::format("{:.0f}", v);
-    }
-    if (v >= 100) {
-        return fmt::format("{:.0f}", v);
-    }
-    return fmt::format("{:.1f}", v);
-}
-
-std::string table(const std::vector<Row>& rows) {
-    std::string out =
-        "| # | measurement | samples | p50 µs | p99 µs | p99.9 µs | max µs | notes | target | met |\n"
-        "|---|---|---|---|---|---|---|---|---|---|\n";
-    for (const auto& r : rows) {
-        std::string p = "| – | – | – | – ";
-        if (r.summary) {
-            p = fmt::format("| {} | {} | {} | {} ", cell(r.summary->p50), cell(r.summary->p99), cell(r.summary->p999),
-                            cell(r.summary->max));
-        }
-        out += fmt::format("| {} | {} | {} {}| {} | {} | {} |\n", r.item, r.what, r.samples, p, r.notes,
-                           r.target.empty() ? "–" : r.target, !r.met ? "–" : (*r.met ? "yes" : "**no**"));
-    }
-    return out;
-}
-
 // ---- items 1 to 3: latency through drivebusd, and libmodbus's direct read ----
 
 void latency(const Options& o, std::vector<Row>& rows) {

@@ -65,6 +65,10 @@ struct Row {
 
 // A row of percentiles over `samples` (µs), without a target.
 Row samples_row(std::string item, std::string what, const std::vector<double>& samples, std::string notes);
+// A table cell: "164", "4.7".
+std::string cell(double v);
+// The rows as docs/performance.md's table (markdown).
+std::string table(const std::vector<Row>& rows);
 
 struct Options {
     bool smoke = false;
