@@ -194,8 +194,9 @@ std::vector<std::uint8_t> answer(const Call& call, const std::expected<shm::Resp
     }
     if (const auto* id = std::get_if<ReadDeviceId>(&call)) {
         std::vector<std::pair<std::uint8_t, std::string>> objects;
-        for (std::uint8_t i = 0; i < result->identity.size(); ++i) {
-            objects.emplace_back(i, std::string(shm::view(result->identity[i])));
+        objects.reserve(result->identity.size());
+        for (std::size_t i = 0; i < result->identity.size(); ++i) {
+            objects.emplace_back(static_cast<std::uint8_t>(i), std::string(shm::view(result->identity[i])));
         }
         return device_id_pdu(*id, objects);
     }

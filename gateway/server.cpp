@@ -258,7 +258,7 @@ void Server::read_from(Connection& c) {
     }
     if (n < 0) {
         if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
-            close(c.id, fmt::format("lost: {}", std::strerror(errno)).c_str());
+            close(c.id, ("lost: " + std::generic_category().message(errno)).c_str());
         }
         return;
     }
