@@ -19,7 +19,7 @@ if(TARGET drivebusctl)
 endif()
 
 # Man pages, by the section in their file name.
-foreach(page drivebusd.8 drivebusd.toml.5 drivebusctl.1 drivebus-sim.1)
+foreach(page drivebusd.8 drivebusd.toml.5 drivebusctl.1 drivebus-sim.1 drivebus-gateway.8)
   string(REGEX MATCH "[0-9]$" section "${page}")
   install(FILES ${PROJECT_SOURCE_DIR}/man/${page} DESTINATION ${CMAKE_INSTALL_MANDIR}/man${section})
 endforeach()

@@ -5,8 +5,8 @@
 Each library exports its own include directory, so a source file can include only the layers
 its target links. This check reads the build's compile_commands.json and fails when a source
 file of a layer is compiled with the include directory of a layer it must not see (a target
-that links too much): the master with the configuration, the libraries or the simulator with
-anything of drivebusd.
+that links too much): the master with the configuration, the libraries, the simulator or the
+gateway (a libdrivebus client) with anything of drivebusd.
 
 usage: check_layers.py SOURCE_DIR compile_commands.json
 """
@@ -27,6 +27,7 @@ RULES = [
     ("daemon/ipc_core/", ["daemon/bus/", "daemon/ipc/"]),
     ("daemon/bus/", ["daemon/ipc/", "daemon/ipc_core/"]),
     ("sim/", DAEMON + ["client/"]),
+    ("gateway/", DAEMON + ["sim/"]),
     ("client/", DAEMON + ["sim/"]),
 ]
 

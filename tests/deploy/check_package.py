@@ -3,20 +3,21 @@
 """Check the Debian packages that `dpkg-buildpackage -us -uc -b` built (debian/), as dpkg sees
 them: scripts/package-check runs it on the .debs of a fresh build.
 
-- exactly the six packages (drivebusd, drivebus-common, libdrivebus0, libdrivebus-dev,
-  drivebusctl, drivebus-sim, each at VERSION; debug symbol packages aside), each with its
+- exactly the seven packages (drivebusd, drivebus-common, libdrivebus0, libdrivebus-dev,
+  drivebusctl, drivebus-sim, drivebus-gateway, each at VERSION; debug symbol packages aside), each with its
   fields: Architecture, a Maintainer that is not @localhost, the dependencies between them;
 - each file in the package it belongs to and in no other: the table of PACKAGES below;
 - no udev rule anywhere (/lib/udev/rules.d, /usr/lib/udev/rules.d, /etc/udev);
 - every man page compressed (.gz), nothing under /usr/share/man uncompressed;
-- drivebusd's conffiles are exactly /etc/drivebus/drivebusd.toml and roudi.toml; no other
-  package has a file in /etc;
+- drivebusd's conffiles are exactly /etc/drivebus/drivebusd.toml and roudi.toml, and
+  drivebus-gateway's /etc/drivebus/gateway.toml; no other package has a file in /etc;
 - the maintainer scripts pass `sh -n` and hold the snippets debhelper writes:
   systemd-sysusers drivebus.conf, drivebusd.service enabled, started and restarted after an
   upgrade, drivebus-roudi.service not enabled, the template never enabled, the units stopped
-  on removal and forgotten on purge; libdrivebus0 has the ldconfig trigger, shlibs and the
+  on removal and forgotten on purge; drivebus-gateway.service enabled, started, stopped on
+  removal and forgotten on purge; libdrivebus0 has the ldconfig trigger, shlibs and the
   symbols file of debian/libdrivebus0.symbols;
-- `systemd-analyze verify` of each extracted unit (tests/deploy/verify_unit.py, drivebusd
+- `systemd-analyze verify` of each extracted unit (tests/deploy/verify_unit.py, the program
   taken from the package), when systemd-analyze is there;
 - the units' ExecStart= programs and --config files, their Documentation= files and every
   concrete /usr, /etc and /lib file the man pages name are installed by one of the packages;
@@ -75,6 +76,12 @@ PACKAGES = {
         "/usr/bin/drivebus-sim",
         "/usr/share/man/man1/drivebus-sim.1.gz",
     ],
+    "drivebus-gateway": [
+        "/etc/drivebus/gateway.toml",
+        "/lib/systemd/system/drivebus-gateway.service",
+        "/usr/sbin/drivebus-gateway",
+        "/usr/share/man/man8/drivebus-gateway.8.gz",
+    ],
 }
 # Files that must be there (the patterns above only say where a file may be).
 REQUIRED = {
@@ -90,11 +97,19 @@ REQUIRED = {
                         "/usr/lib/{multiarch}/pkgconfig/drivebus.pc"],
     "drivebusctl": PACKAGES["drivebusctl"],
     "drivebus-sim": PACKAGES["drivebus-sim"],
+    "drivebus-gateway": PACKAGES["drivebus-gateway"],
 }
 # Named by the man pages as the administrator's, not installed: the udev rule of the board, and
 # the configuration fragments (the drivebusd package ships their directory, empty).
 ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/")
 CONFFILES = ["/etc/drivebus/drivebusd.toml", "/etc/drivebus/roudi.toml"]
+GATEWAY_CONFFILES = ["/etc/drivebus/gateway.toml"]
+# drivebus-gateway's snippets (dh_installsystemd): enabled, started, stopped on removal, purged.
+GATEWAY_SNIPPETS = {
+    "postinst": [r"was-enabled 'drivebus-gateway\.service'", r"deb-systemd-invoke \$_dh_action 'drivebus-gateway\.service'"],
+    "prerm": [r"deb-systemd-invoke stop 'drivebus-gateway\.service'"],
+    "postrm": [r"deb-systemd-helper purge 'drivebus-gateway\.service'"],
+}
 
 # debhelper's snippets in drivebusd's maintainer scripts (dh_installsysusers,
 # dh_installsystemd): the text that must be there, and what must not.
@@ -220,6 +235,8 @@ def main(argv):
                 "libdrivebus-dev": [f"libdrivebus0 (= {version})"],
                 "drivebusctl": [f"libdrivebus0 (>= {version})"],
                 "drivebus-sim": [f"drivebus-common (= {version})"],
+                # drivebusd: the daemon it is a client of, and the sysusers.d file of its user.
+                "drivebus-gateway": [f"drivebusd (= {version})", f"libdrivebus0 (>= {version})"],
             }.get(name, [])
             for d in wanted_depends:
                 if d not in depends:
@@ -250,8 +267,8 @@ def main(argv):
                     problems.append(f"{name}: {f}: the packages install nothing of udev but its README")
                 if f.startswith("/usr/share/man/") and not f.endswith(".gz"):
                     problems.append(f"{name}: {f}: man page not compressed")
-                if f.startswith("/etc/") and name != "drivebusd":
-                    problems.append(f"{name}: {f}: only drivebusd has files in /etc")
+                if f.startswith("/etc/") and name not in ("drivebusd", "drivebus-gateway"):
+                    problems.append(f"{name}: {f}: only drivebusd and drivebus-gateway have files in /etc")
                 if f.startswith(f"/usr/share/doc/{name}/") and os.path.basename(f) in ("copyright", "changelog.gz"):
                     continue
                 if not any(matches(f, p) for p in patterns):
@@ -288,9 +305,21 @@ def main(argv):
                 for pattern in NOT_SNIPPETS.get(script, []):
                     if re.search(pattern, text):
                         problems.append(f"drivebusd: {script} has /{pattern}/")
+        control = controls.get("drivebus-gateway")
+        if control:
+            conffiles_path = os.path.join(control, "conffiles")
+            listed = open(conffiles_path, encoding="utf-8").read().split() if os.path.exists(conffiles_path) else []
+            if sorted(listed) != GATEWAY_CONFFILES:
+                problems.append(f"drivebus-gateway: conffiles {listed}, wanted {GATEWAY_CONFFILES}")
+            for script, patterns in GATEWAY_SNIPPETS.items():
+                path = os.path.join(control, script)
+                text = open(path, encoding="utf-8").read() if os.path.exists(path) else ""
+                for pattern in patterns:
+                    if not re.search(pattern, text):
+                        problems.append(f"drivebus-gateway: {script} has no /{pattern}/")
         for name, control in controls.items():
-            if name != "drivebusd" and any(os.path.exists(os.path.join(control, s))
-                                           for s in ("preinst", "postinst", "prerm", "postrm")):
+            if name not in ("drivebusd", "drivebus-gateway") and any(
+                    os.path.exists(os.path.join(control, s)) for s in ("preinst", "postinst", "prerm", "postrm")):
                 problems.append(f"{name}: has maintainer scripts ({os.listdir(control)})")
 
         # libdrivebus0: ldconfig, shlibs, the symbols file as debian/ has it.
@@ -314,8 +343,10 @@ def main(argv):
         # The units: verified, and what they run and read is in the packages.
         root = roots.get("drivebusd", "")
         units = sorted(glob.glob(os.path.join(root, "lib/systemd/system/*.service")))
+        gateway_root = roots.get("drivebus-gateway", "")
+        gateway_units = sorted(glob.glob(os.path.join(gateway_root, "lib/systemd/system/*.service")))
         analyze = shutil.which("systemd-analyze")
-        for unit in units:
+        for unit in units + gateway_units:
             base = os.path.basename(unit)
             with open(unit, encoding="utf-8") as f:
                 text = f.read()
@@ -333,13 +364,17 @@ def main(argv):
                         if doc.startswith("file:") and doc[5:] not in owner:
                             problems.append(f"{base}: Documentation={doc} is not in a package")
             if analyze and (base != "drivebus-roudi.service" or shutil.which("iox-roudi")):
+                program = (os.path.join(gateway_root, "usr/sbin/drivebus-gateway") if base == "drivebus-gateway.service"
+                           else os.path.join(root, "usr/sbin/drivebusd"))
                 p = run([sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)), "verify_unit.py"),
-                         analyze, os.path.join(root, "usr/sbin/drivebusd"), unit])
+                         analyze, program, unit])
                 print(p.stdout.strip().splitlines()[-1] if p.stdout.strip() else f"{base}: verify said nothing")
                 if p.returncode != 0:
                     problems.append(f"{base}: systemd-analyze verify failed:\n{p.stdout}{p.stderr}")
         if len(units) != 3:
             problems.append(f"drivebusd: {len(units)} units, wanted 3")
+        if len(gateway_units) != 1:
+            problems.append(f"drivebus-gateway: {len(gateway_units)} units, wanted 1")
         if not analyze:
             print("no systemd-analyze: the units are not verified")
 
@@ -367,7 +402,7 @@ def main(argv):
         print(f"packages: {len(problems)} problem(s)")
         return 1
     print(f"packages: {', '.join(sorted(debs))} at {version}: {len(owner)} files where they belong, "
-          f"conffiles {', '.join(CONFFILES)}")
+          f"conffiles {', '.join(CONFFILES + GATEWAY_CONFFILES)}")
     return 0
 
 

@@ -3,7 +3,9 @@
 """Apply a sysusers.d file with systemd-sysusers into a scratch root and check what it made:
 the groups drivebus, drivebusd and drivebus-control; the system user drivebus with primary
 group drivebus and shell nologin, a member of drivebusd and dialout and of nothing else of
-drivebus's (not drivebus-control: the daemon sends no requests).
+drivebus's (not drivebus-control: the daemon sends no requests); the system user
+drivebus-gateway, primary group drivebus, a member of drivebus-control and of nothing else (not
+drivebusd: only the daemon writes the shared memory; not dialout: it opens no port).
 
 The scratch root starts with a group file holding dialout, as on Debian. systemd-sysusers
 exits 0 after a line it ignores, so any message naming the file fails too.
@@ -16,8 +18,11 @@ import sys
 import tempfile
 
 GROUPS = ("drivebus", "drivebusd", "drivebus-control")
-MEMBER_OF = {"drivebusd", "dialout"}
-NOT_MEMBER_OF = {"drivebus-control"}
+# Each user: the groups it must be a member of, and those it must not.
+USERS = {
+    "drivebus": ({"drivebusd", "dialout"}, {"drivebus-control"}),
+    "drivebus-gateway": ({"drivebus-control"}, {"drivebusd", "dialout"}),
+}
 
 
 def read_db(path):
@@ -50,27 +55,31 @@ def main(argv):
     for g in GROUPS:
         if g not in groups:
             problems.append(f"no group {g}")
-    user = users.get("drivebus")
-    if user is None:
-        problems.append("no user drivebus")
-    else:
+    memberships = {}
+    for name, (member_of_wanted, not_member_of) in USERS.items():
+        user = users.get(name)
+        if user is None:
+            problems.append(f"no user {name}")
+            continue
         if groups.get("drivebus") and user[3] != groups["drivebus"][2]:
-            problems.append(f"user drivebus has primary GID {user[3]}, not drivebus's {groups['drivebus'][2]}")
-        if int(user[2]) >= 1000:
-            problems.append(f"user drivebus has UID {user[2]}, not a system UID")
+            problems.append(f"user {name} has primary GID {user[3]}, not drivebus's {groups['drivebus'][2]}")
+        if not 0 < int(user[2]) < 1000:
+            problems.append(f"user {name} has UID {user[2]}, not a system UID")
         if not user[6].endswith("nologin"):
-            problems.append(f"user drivebus has shell {user[6]}, not nologin")
-    member_of = {name for name, entry in groups.items() if "drivebus" in entry[3].split(",")}
-    for g in sorted(MEMBER_OF - member_of):
-        problems.append(f"user drivebus is not a member of {g}")
-    for g in sorted(NOT_MEMBER_OF & member_of):
-        problems.append(f"user drivebus is a member of {g}")
+            problems.append(f"user {name} has shell {user[6]}, not nologin")
+        member_of = {g for g, entry in groups.items() if name in entry[3].split(",")}
+        memberships[name] = member_of
+        for g in sorted(member_of_wanted - member_of):
+            problems.append(f"user {name} is not a member of {g}")
+        for g in sorted(not_member_of & member_of):
+            problems.append(f"user {name} is a member of {g}")
 
     for p in problems:
         print(f"{argv[2]}: {p}")
     if problems:
         return 1
-    print(f"{argv[2]}: groups {', '.join(GROUPS)}; user drivebus in {', '.join(sorted(member_of))}")
+    users_text = "; ".join(f"user {n} in {', '.join(sorted(g))}" for n, g in memberships.items())
+    print(f"{argv[2]}: groups {', '.join(GROUPS)}; {users_text}")
     return 0
 
 

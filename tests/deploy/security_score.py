@@ -3,8 +3,8 @@
 """`systemd-analyze security --offline=yes` of a drivebus unit: fail above a maximum exposure,
 and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlock, the
 serial and GPIO devices, /tmp and /dev/shm for iceoryx), or what the RouDi of
-drivebus-roudi.service needs (/tmp, /dev/shm, the host's users and groups, local sockets), so
-the score cannot be bought by breaking the service.
+drivebus-roudi.service or a client's unit (drivebus-gateway.service) needs (/tmp, /dev/shm, the
+host's users and groups, local sockets), so the score cannot be bought by breaking the service.
 
 usage: security_score.py SYSTEMD_ANALYZE UNIT MAX_EXPOSURE
 """
@@ -30,7 +30,7 @@ def settings(path):
     return values
 
 
-def roudi_needs(s):
+def roudi_needs(s, user="drivebus"):
     last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
     words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
     problems = []
@@ -46,8 +46,8 @@ def roudi_needs(s):
     families = words("RestrictAddressFamilies")
     if families and ("AF_UNIX" not in families if not families[0].startswith("~") else "~AF_UNIX" in families):
         problems.append("RestrictAddressFamilies= takes AF_UNIX away (the iceoryx sockets)")
-    for key, value in (("User", "drivebus"), ("Group", "drivebus"), ("UMask", "0007")):
-        if last(key) != value:
+    for key, value in (("User", user), ("Group", "drivebus"), ("UMask", "0007")):
+        if value is not None and last(key) != value:
             problems.append(f"{key}= is '{last(key)}', not {value}")
     return problems
 
@@ -56,6 +56,10 @@ def needs(unit):
     s = settings(unit)
     if "iox-roudi" in " ".join(s.get("ExecStart", [])):
         return roudi_needs(s)
+    if "drivebusd" not in " ".join(s.get("ExecStart", [])):
+        # A libdrivebus client (drivebus-gateway): the iceoryx sockets, segments and groups as
+        # the RouDi's, under a user of its own.
+        return roudi_needs(s, user=None)
     last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
     words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
     problems = []
