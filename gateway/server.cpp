@@ -242,7 +242,9 @@ void Server::on_ready(std::uint64_t id, sys::Readiness readiness) {
     if (connections_.count(id) == 0) {
         return;  // closed by read_from
     }
-    if (readiness.hung_up && !readiness.readable) {
+    // Both directions are down (or the peer reset it): no answer can reach it any more. Closed
+    // now even while it is not being read, or epoll would report the hang-up on every round.
+    if (readiness.hung_up) {
         close(id, "hung up");
         return;
     }

@@ -304,3 +304,23 @@ TEST(GatewayServer, AClientThatNeverReadsItsAnswersHoldsNobodyElse) {
     // What it holds for the deaf client is bounded: far fewer requests taken than sent.
     EXPECT_LT(r.server.stats().requests, sent / adu.size());
 }
+
+TEST(GatewayServer, AClientThatResetsWhileItsRequestWaitsIsDroppedAtOnce) {
+    FakeBackend backend;
+    auto config = loopback();
+    config.max_pipelined = 1;  // its second request stays unread: the server stops watching it
+    Running r(config, backend);
+    backend.block(2);
+    {
+        Peer gone(r.server.port());
+        gone.request(1, 2, kReadFd06);
+        ASSERT_TRUE(backend.wait_seen(1));
+        gone.request(2, 2, kReadFd06);
+        ASSERT_TRUE(drivebus::test::wait_until([&] { return r.server.stats().requests == 1; }, 5s));
+        const linger abortive{1, 0};  // close() sends a reset
+        ::setsockopt(gone.fd(), SOL_SOCKET, SO_LINGER, &abortive, sizeof abortive);
+    }
+    EXPECT_TRUE(drivebus::test::wait_until([&] { return r.server.stats().open == 0; }, 5s))
+        << "the connection is still open while its drive hangs";
+    backend.block(-1);
+}
