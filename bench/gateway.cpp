@@ -175,6 +175,16 @@ void drivebus_runs(double seconds, int clients, std::vector<Row>& rows, const st
                              "response_timeout = \"100ms\"\nretries = 2\n"
                              "  [[bus.drive]]\n  name = \"d1\"\n  address = 1\n  profile = \"atv58\"\n"
                              "    [[bus.drive.poll]]\n    registers = [\"W450\"]\n    period = \"2s\"\n";
+    // Destroyed after drivebusd: the next user of iceoryx (a test, the other benchmark) starts
+    // only once this drivebusd's RouDi has let its lock go.
+    struct AfterDaemon {
+        AfterDaemon() = default;
+        AfterDaemon(const AfterDaemon&) = delete;
+        AfterDaemon& operator=(const AfterDaemon&) = delete;
+        AfterDaemon(AfterDaemon&&) = delete;
+        AfterDaemon& operator=(AfterDaemon&&) = delete;
+        ~AfterDaemon() { (void)test::wait_until([] { return roudi_gone(); }, 10s); }
+    } after_daemon;
     Process daemon({DRIVEBUSD_PATH, "--config", config.string()}, dir / "drivebusd.log");
     if (!test::wait_until([&] { return roudi_answers() && daemon.output().find("running:") != std::string::npos; },
                           20s)) {
