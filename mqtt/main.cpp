@@ -1,0 +1,121 @@
+// SPDX-License-Identifier: Apache-2.0
+// drivebus-mqtt: publishes the drives of drivebusd's buses on an MQTT broker, and takes
+// commands for the drives its configuration enables (docs/mqtt.md).
+//
+//   drivebus-mqtt --config FILE [--check-config] [--verbose]
+//
+// Exit codes: 0 clean stop (or a valid config with --check-config), 78 bad configuration
+// (EX_CONFIG), 2 bad command line, 1 a failure at start-up.
+#include <signal.h>
+#include <systemd/sd-daemon.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <array>
+#include <iostream>
+#include <string>
+#include <thread>
+
+#include "bridge.hpp"
+#include "drivebus/version.hpp"
+#include "log/log.hpp"
+#include "mqtt/config.hpp"
+
+using namespace drivebus;
+
+namespace {
+
+constexpr int kExitConfig = 78;
+constexpr int kExitUsage = 2;
+constexpr int kExitStartup = 1;
+
+std::string hostname() {
+    std::array<char, 256> name{};
+    if (::gethostname(name.data(), name.size() - 1) != 0) {
+        return "localhost";
+    }
+    return name.data();
+}
+
+int run_main(int argc, char** argv) {
+    std::string config_path = "/etc/drivebus/mqtt.toml";
+    bool check_only = false;
+    bool verbose = false;
+    CLI::App app{"drivebus-mqtt: drivebus drives on an MQTT broker"};
+    app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
+    app.add_option("--config", config_path, "configuration file (TOML)");
+    app.add_flag("--check-config", check_only, "validate the configuration and exit (0 valid, 78 not)");
+    app.add_flag("--verbose,-v", verbose, "log debug messages");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::cerr << "drivebus-mqtt: " << e.what() << " (see --help)\n";
+        return kExitUsage;
+    }
+    log::init("drivebus-mqtt", verbose ? log::Level::Debug : log::Level::Info);
+    const auto config = mqtt::load_config(config_path, hostname());
+    if (!config) {
+        log::error(config.error().message);
+        return kExitConfig;
+    }
+    if (check_only) {
+        std::cout << config_path << ": valid, node " << config->node << ", broker " << config->broker.host << ":"
+                  << config->broker.port << ", " << config->buses.size()
+                  << (config->buses.size() == 1 ? " bus\n" : " buses\n");
+        return 0;
+    }
+    log::route_standard_streams();
+
+    // Signals are taken by this thread alone (sigwait): every thread started below inherits the mask.
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    sigaddset(&signals, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+    ::signal(SIGPIPE, SIG_IGN);
+
+    std::unique_ptr<mqtt::Bridge> bridge;
+    try {
+        bridge = std::make_unique<mqtt::Bridge>(*config);
+    } catch (const std::exception& e) {
+        log::error(e.what());
+        return kExitStartup;
+    }
+    std::thread runner([&] { bridge->run(); });
+    log::notice("running: node " + config->node + ", broker " + config->broker.host + ":" +
+                std::to_string(config->broker.port) + (config->broker.tls ? " (TLS)" : "") + ", " +
+                std::to_string(config->buses.size()) + (config->buses.size() == 1 ? " bus" : " buses"));
+    sd_notify(0, "READY=1");
+    for (;;) {
+        int signal = 0;
+        if (sigwait(&signals, &signal) != 0) {
+            continue;
+        }
+        if (signal == SIGHUP) {
+            log::info("SIGHUP: the configuration is read at start only; restart to apply a new one");
+            continue;
+        }
+        break;
+    }
+    sd_notify(0, "STOPPING=1");
+    bridge->stop();
+    runner.join();
+    bridge.reset();
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run_main(argc, argv);
+    } catch (const std::exception& e) {
+        std::cerr << "drivebus-mqtt: " << e.what() << '\n';
+        return kExitStartup;
+    }
+}
