@@ -99,21 +99,29 @@ LinkCounters BrokerLink::counters() const {
 }
 
 bool BrokerLink::publish(const std::string& topic, std::string_view payload, int qos, bool retain) {
-    if (!connected_.load() || (qos > 0 && in_flight_.load() >= config_.limits.results_in_flight)) {
+    if (!connected_.load()) {
+        ++dropped_;
+        return false;
+    }
+    // QoS 1: the mid is booked under the lock before the acknowledgement can come, so that the
+    // set holds exactly what the broker has not acknowledged.
+    std::unique_lock lock(in_flight_mutex_, std::defer_lock);
+    if (qos > 0) {
+        lock.lock();
+        if (in_flight_.size() >= config_.limits.results_in_flight) {
+            ++dropped_;
+            return false;
+        }
+    }
+    int mid = 0;
+    const int rc =
+        mosquitto_publish(mosq_, &mid, topic.c_str(), static_cast<int>(payload.size()), payload.data(), qos, retain);
+    if (rc != MOSQ_ERR_SUCCESS) {
         ++dropped_;
         return false;
     }
     if (qos > 0) {
-        ++in_flight_;
-    }
-    const int rc =
-        mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), qos, retain);
-    if (rc != MOSQ_ERR_SUCCESS) {
-        if (qos > 0) {
-            --in_flight_;
-        }
-        ++dropped_;
-        return false;
+        in_flight_.insert(mid);
     }
     return true;
 }
@@ -127,7 +135,10 @@ void BrokerLink::on_connect(mosquitto* m, void* self, int rc) {
     }
     const auto filter = link.topics_.set_filter();
     mosquitto_subscribe(m, nullptr, filter.c_str(), 1);
-    link.in_flight_ = 0;
+    {
+        std::lock_guard lock(link.in_flight_mutex_);
+        link.in_flight_.clear();
+    }
     link.connected_ = true;
     std::uint64_t failed = 0;
     {
@@ -155,8 +166,9 @@ void BrokerLink::on_disconnect(mosquitto* /*m*/, void* self, int rc) {
 
 void BrokerLink::on_publish(mosquitto* /*m*/, void* self, int mid) {
     auto& link = *static_cast<BrokerLink*>(self);
-    if (link.in_flight_.load() > 0) {
-        --link.in_flight_;
+    {
+        std::lock_guard lock(link.in_flight_mutex_);
+        link.in_flight_.erase(mid);
     }
     if (mid == link.goodbye_mid_.load()) {
         link.goodbye_acked_ = true;
@@ -191,8 +203,9 @@ bool BrokerLink::attempt(bool first) {
     if (backoff_.failures() == 0) {
         log::warning("cannot reach broker " + endpoint(b) + ": " +
                      (rc == MOSQ_ERR_ERRNO ? std::string(std::strerror(errno)) : std::string(mosquitto_strerror(rc))) +
-                     "; retrying with back-off (" + std::to_string(failed) + " failed attempts so far)");
+                     "; retrying with back-off, failures counted");
     }
+    log::debug("broker " + endpoint(b) + ": attempt " + std::to_string(failed) + " failed");
     return false;
 }
 

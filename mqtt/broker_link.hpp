@@ -15,6 +15,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <unordered_set>
 
 #include "mqtt/backoff.hpp"
 #include "mqtt/config.hpp"
@@ -72,7 +73,8 @@ private:
     std::atomic<bool> stopping_{false};
     std::atomic<bool> connected_{false};
     std::atomic<bool> socket_open_{false};
-    std::atomic<std::uint64_t> in_flight_{0};
+    std::mutex in_flight_mutex_;
+    std::unordered_set<int> in_flight_;  // mids of QoS 1 messages not yet acknowledged
     std::atomic<std::uint64_t> dropped_{0};
     std::atomic<int> goodbye_mid_{-1};
     std::atomic<bool> goodbye_acked_{false};

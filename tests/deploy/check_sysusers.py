@@ -5,7 +5,8 @@ the groups drivebus, drivebusd and drivebus-control; the system user drivebus wi
 group drivebus and shell nologin, a member of drivebusd and dialout and of nothing else of
 drivebus's (not drivebus-control: the daemon sends no requests); the system user
 drivebus-gateway, primary group drivebus, a member of drivebus-control and of nothing else (not
-drivebusd: only the daemon writes the shared memory; not dialout: it opens no port).
+drivebusd: only the daemon writes the shared memory; not dialout: it opens no port); the same
+for drivebus-mqtt, the MQTT bridge's user.
 
 The scratch root starts with a group file holding dialout, as on Debian. systemd-sysusers
 exits 0 after a line it ignores, so any message naming the file fails too.
@@ -22,6 +23,7 @@ GROUPS = ("drivebus", "drivebusd", "drivebus-control")
 USERS = {
     "drivebus": ({"drivebusd", "dialout"}, {"drivebus-control"}),
     "drivebus-gateway": ({"drivebus-control"}, {"drivebusd", "dialout"}),
+    "drivebus-mqtt": ({"drivebus-control"}, {"drivebusd", "dialout"}),
 }
 
 

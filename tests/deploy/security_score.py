@@ -3,8 +3,9 @@
 """`systemd-analyze security --offline=yes` of a drivebus unit: fail above a maximum exposure,
 and fail when the hardening takes away what drivebusd needs (SCHED_FIFO, mlock, the
 serial and GPIO devices, /tmp and /dev/shm for iceoryx), or what the RouDi of
-drivebus-roudi.service or a client's unit (drivebus-gateway.service) needs (/tmp, /dev/shm, the
-host's users and groups, local sockets), so the score cannot be bought by breaking the service.
+drivebus-roudi.service or a client's unit (drivebus-gateway.service; drivebus-mqtt.service, the
+network and group drivebus-control too) needs (/tmp, /dev/shm, the host's users and groups, local
+sockets), so the score cannot be bought by breaking the service.
 
 usage: security_score.py SYSTEMD_ANALYZE UNIT MAX_EXPOSURE
 """
@@ -52,10 +53,43 @@ def roudi_needs(s, user="drivebus"):
     return problems
 
 
+def mqtt_needs(s):
+    """drivebus-mqtt: an iceoryx client (the host's /tmp, /dev/shm and groups, local sockets)
+    that reaches a broker over the network and sends commands (group drivebus-control)."""
+    last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
+    words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
+    problems = []
+    if last("PrivateTmp") in ("yes", "true", "1"):
+        problems.append("PrivateTmp=yes hides /tmp/roudi")
+    if last("PrivateUsers") in ("yes", "true", "1"):
+        problems.append("PrivateUsers=yes unmaps the groups the segments' ACLs name")
+    if last("PrivateNetwork") in ("yes", "true", "1"):
+        problems.append("PrivateNetwork=yes cuts the bridge off its broker")
+    if last("ProtectSystem") == "strict":
+        rw = words("ReadWritePaths")
+        for path in ("/tmp", "/dev/shm"):
+            if path not in rw and "-" + path not in rw:
+                problems.append(f"ProtectSystem=strict without ReadWritePaths={path}")
+    families = words("RestrictAddressFamilies")
+    for family in ("AF_UNIX", "AF_INET", "AF_INET6"):
+        if families and family not in families:
+            problems.append(f"RestrictAddressFamilies= takes {family} away")
+    if words("CapabilityBoundingSet") or words("AmbientCapabilities"):
+        problems.append("the bridge needs no capability")
+    for key, value in (("User", "drivebus-mqtt"), ("Group", "drivebus")):
+        if last(key) != value:
+            problems.append(f"{key}= is '{last(key)}', not {value}")
+    if "drivebus-control" not in words("SupplementaryGroups"):
+        problems.append("SupplementaryGroups= has no drivebus-control (commands)")
+    return problems
+
+
 def needs(unit):
     s = settings(unit)
     if "iox-roudi" in " ".join(s.get("ExecStart", [])):
         return roudi_needs(s)
+    if "drivebus-mqtt" in " ".join(s.get("ExecStart", [])):
+        return mqtt_needs(s)
     if "drivebusd" not in " ".join(s.get("ExecStart", [])):
         # A libdrivebus client (drivebus-gateway): the iceoryx sockets, segments and groups as
         # the RouDi's, under a user of its own.

@@ -3,9 +3,9 @@
 """`systemd-analyze verify` of a drivebus unit, strictly.
 
 verify checks that ExecStart= names an executable, so the unit is copied into a scratch
-directory with the program of /usr/sbin it runs (drivebusd, drivebus-gateway) replaced by the
-built binary given (a unit that runs another program, drivebus-roudi.service's iox-roudi, is
-verified as it is). A template is verified as an
+directory with the drivebus program it runs (/usr/sbin/drivebusd, /usr/sbin/drivebus-gateway,
+/usr/bin/drivebus-mqtt) replaced by the built binary given (a unit that runs another program,
+drivebus-roudi.service's iox-roudi, is verified as it is). A template is verified as an
 instance (drivebusd@verify.service) so that %i is expanded. systemd-analyze exits 0 on
 unknown keys and unparsable values (it only logs "ignoring"), so any message about the unit
 fails the test too.
@@ -30,7 +30,7 @@ def main(argv):
         name = name.replace("@.service", "@verify.service")
     with open(unit, encoding="utf-8") as f:
         text = f.read()
-    text, count = re.subn(r"^(ExecStart=[-@:+!]*)/usr/sbin/drivebus[-a-z]*(?=\s|$)", lambda m: m.group(1) + binary,
+    text, count = re.subn(r"^(ExecStart=[-@:+!]*)/usr/s?bin/drivebus[-a-z]*(?=\s|$)", lambda m: m.group(1) + binary,
                           text, flags=re.M)
     if count == 0 and not re.search(r"^ExecStart=\S", text, flags=re.M):
         print(f"{unit}: no ExecStart=")

@@ -1,0 +1,259 @@
+// SPDX-License-Identifier: Apache-2.0
+// drivebus-mqtt end to end: a real mosquitto broker on a loopback port, drivebus-sim and
+// drivebusd (the Stack), and the bridge as a process. Every wait is for a condition, with a
+// deadline. One RouDi per machine: RESOURCE_LOCK iceoryx.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "broker.hpp"
+#include "stack.hpp"
+
+namespace drivebus::test {
+namespace {
+
+using namespace std::chrono_literals;
+using Json = nlohmann::json;
+
+constexpr std::uint16_t kRunForward = 0xC400;  // profiles/atv21.toml [control]
+constexpr std::uint16_t kStop = 0xC000;
+
+StackOptions stack_options() {
+    StackOptions o;
+    o.drive_extra = "  lease = \"1s\"\n  fallback = \"stop\"\n";
+    return o;
+}
+
+Json parsed(const Message& m) {
+    return Json::parse(m.payload, nullptr, false);
+}
+
+class MqttBridge : public ::testing::Test {
+protected:
+    MqttBridge()
+        : stack_(stack_options()),
+          broker_(),
+          node_("t" + std::to_string(::getpid())),
+          watcher_(broker_.port(), "drivebus/" + node_ + "/#") {}
+
+    // Starts the bridge with commands enabled for the pump only.
+    void start_bridge(const std::string& extra_limits = {}, bool verbose = false) {
+        config_ = stack_.dir() / "mqtt.toml";
+        std::ofstream(config_) << "node = \"" << node_
+                               << "\"\n[broker]\nhost = \"127.0.0.1\"\nport = " << broker_.port()
+                               << "\nreconnect_min = \"100ms\"\nreconnect_max = \"1s\"\nkeepalive = \"5s\"\n"
+                               << extra_limits << "[[bus]]\nname = \"" << stack_.bus()
+                               << "\"\nperiod = \"2s\"\n  [[bus.drive]]\n  name = \"pump\"\n  commands = true\n";
+        std::vector<std::string> argv{DRIVEBUS_MQTT_PATH, "--config", config_.string()};
+        if (verbose) {
+            argv.emplace_back("--verbose");
+        }
+        bridge_ = std::make_unique<Child>(argv);
+    }
+
+    [[nodiscard]] std::string topic(const std::string& rest) const { return "drivebus/" + node_ + "/" + rest; }
+    [[nodiscard]] std::string drive_topic(const std::string& drive, const std::string& what) const {
+        return topic(stack_.bus() + "/" + drive + "/" + what);
+    }
+
+    // The pump's state, online, with FA01 read.
+    std::optional<Json> online_state(std::chrono::milliseconds timeout, std::size_t from = 0) {
+        const auto m = watcher_.wait(
+            drive_topic("pump", "state"),
+            [](const Message& msg) {
+                const auto j = parsed(msg);
+                return j.is_object() && j.value("health", "") == "online" && j["registers"].contains("FA01") &&
+                       j["registers"]["FA01"]["raw"].is_number();
+            },
+            timeout, from);
+        if (!m) {
+            return std::nullopt;
+        }
+        return parsed(*m);
+    }
+
+    std::optional<Json> result(const std::string& drive, const Json& id, std::chrono::milliseconds timeout) {
+        const auto m = watcher_.wait(
+            drive_topic(drive, "result"), [&](const Message& msg) { return parsed(msg).value("id", Json()) == id; },
+            timeout);
+        if (!m) {
+            return std::nullopt;
+        }
+        return parsed(*m);
+    }
+
+    std::string bridge_output() const { return bridge_ ? bridge_->output() : std::string(); }
+
+    Stack stack_;
+    Broker broker_;
+    std::string node_;
+    Watcher watcher_;
+    std::filesystem::path config_;
+    std::unique_ptr<Child> bridge_;
+};
+
+TEST_F(MqttBridge, RetainedStateMatchesTheSimulator) {
+    start_bridge();
+    ASSERT_TRUE(watcher_.wait(
+        topic("status"), [](const Message& m) { return m.payload == "online"; }, 20s))
+        << bridge_output();
+    const auto state = online_state(20s);
+    ASSERT_TRUE(state) << bridge_output();
+    EXPECT_EQ((*state)["registers"]["FA01"]["raw"].get<int>(), stack_.sim_register(1, "FA01"));
+    EXPECT_EQ((*state)["registers"]["FA01"]["unit"], "Hz");
+    EXPECT_TRUE((*state)["altivar"].is_object());
+    // A subscriber that comes later gets the retained state at once (mosquitto_sub).
+    const auto [status, out] = mosquitto_sub_one(broker_.port(), drive_topic("pump", "state"));
+    ASSERT_EQ(status, 0) << out;
+    const auto retained = Json::parse(out, nullptr, false);
+    ASSERT_TRUE(retained.is_object()) << out;
+    EXPECT_EQ(retained["drive"], "pump");
+    EXPECT_EQ(retained["registers"]["FA01"]["raw"].get<int>(), stack_.sim_register(1, "FA01"));
+    // The fan is published too, and the bus status.
+    EXPECT_TRUE(watcher_.wait(drive_topic("fan", "state"), [](const Message&) { return true; }, 10s));
+    const auto bus = watcher_.wait(
+        topic(stack_.bus() + "/status"), [](const Message& m) { return parsed(m).value("up", false); }, 10s);
+    ASSERT_TRUE(bus) << bridge_output();
+    EXPECT_EQ(parsed(*bus)["drivebusd"], "running");
+}
+
+TEST_F(MqttBridge, ACommandReachesTheDriveAndItsResultComesBack) {
+    start_bridge();
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    const auto [status, out] =
+        mosquitto_pub(broker_.port(), drive_topic("pump", "set"), R"({"id": "c-1", "frequency": 40, "verb": "run"})");
+    ASSERT_EQ(status, 0) << out;
+    const auto r = result("pump", "c-1", 10s);
+    ASSERT_TRUE(r) << bridge_output();
+    EXPECT_EQ((*r)["ok"], true) << r->dump();
+    EXPECT_EQ(stack_.sim_register(1, "FA01"), 4000);
+    EXPECT_EQ(stack_.sim_register(1, "FA00"), kRunForward);
+    // The state shows the bridge holding the lease.
+    const auto held = watcher_.wait(
+        drive_topic("pump", "state"), [](const Message& m) { return parsed(m)["lease"].value("state", "") == "held"; },
+        10s);
+    ASSERT_TRUE(held);
+    EXPECT_EQ(parsed(*held)["lease"]["holder"].get<std::string>().rfind("drivebus-mqtt", 0), 0U) << held->payload;
+}
+
+TEST_F(MqttBridge, ACommandToADriveNotEnabledIsRefusedSayingSo) {
+    start_bridge();
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    const auto before = stack_.sim_register(2, "W400");
+    ASSERT_EQ(mosquitto_pub(broker_.port(), drive_topic("fan", "set"), R"({"id": 5, "verb": "run"})").first, 0);
+    const auto r = result("fan", 5, 10s);
+    ASSERT_TRUE(r) << bridge_output();
+    EXPECT_EQ((*r)["ok"], false);
+    EXPECT_EQ((*r)["reason"], "commands_disabled");
+    EXPECT_NE((*r)["error"].get<std::string>().find("not enabled"), std::string::npos);
+    EXPECT_EQ(stack_.sim_register(2, "W400"), before);
+}
+
+TEST_F(MqttBridge, HostileCommandsGetAResultAndNoCrash) {
+    start_bridge("[limits]\ncommand_queue = 4\nmax_payload = 1024\n");
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    // Malformed JSON: a result with no id (there is none to echo) saying so.
+    const std::size_t from = watcher_.count();
+    ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), "{\"id\": \"x\", "));
+    const auto malformed = watcher_.wait(
+        drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "malformed"; },
+        10s, from);
+    ASSERT_TRUE(malformed) << bridge_output();
+    EXPECT_TRUE(parsed(*malformed)["id"].is_null());
+    // Too large: refused unread.
+    ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), std::string(200000, '{')));
+    EXPECT_TRUE(watcher_.wait(
+        drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "too_large"; },
+        10s, from));
+    // Unknown drive and register.
+    ASSERT_TRUE(watcher_.publish(drive_topic("nosuch", "set"), R"({"id": "u", "verb": "stop"})"));
+    const auto unknown = result("nosuch", "u", 10s);
+    ASSERT_TRUE(unknown);
+    EXPECT_EQ((*unknown)["reason"], "unknown_drive");
+    ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), R"({"id": "r", "registers": {"ZZ99": 1}})"));
+    const auto bad_register = result("pump", "r", 10s);
+    ASSERT_TRUE(bad_register);
+    EXPECT_EQ((*bad_register)["reason"], "invalid");
+    // A flood: commands beyond the queue are refused as busy at once (results beyond the QoS 1
+    // window are dropped and counted), nothing grows, and the bridge still works after it.
+    for (int i = 0; i < 300; ++i) {
+        watcher_.publish(drive_topic("pump", "set"),
+                         Json{{"id", "f" + std::to_string(i)}, {"frequency", 10 + i % 30}}.dump());
+    }
+    const auto busy = watcher_.wait(
+        drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "busy"; }, 10s,
+        from);
+    EXPECT_TRUE(busy) << "a flood of 300 against a queue of 4 refused none";
+    // Once the queue has drained, a command is carried out again.
+    std::optional<Json> last;
+    ASSERT_TRUE(wait_until(
+        [&, n = 0]() mutable {
+            const std::string id = "last-" + std::to_string(n++);
+            watcher_.publish(drive_topic("pump", "set"), Json{{"id", id}, {"frequency", 25}}.dump());
+            last = result("pump", id, 5s);
+            return last && (*last)["ok"] == true;
+        },
+        30s))
+        << (last ? last->dump() : std::string("no result")) << bridge_output();
+    EXPECT_EQ(stack_.sim_register(1, "FA01"), 2500);
+    EXPECT_EQ(::kill(bridge_->pid(), 0), 0);
+}
+
+TEST_F(MqttBridge, KilledTheBridgeLeavesItsWillAndTheDriveReachesItsFallback) {
+    start_bridge();
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    ASSERT_EQ(
+        mosquitto_pub(broker_.port(), drive_topic("pump", "set"), R"({"id": "go", "frequency": 30, "verb": "run"})")
+            .first,
+        0);
+    const auto r = result("pump", "go", 10s);
+    ASSERT_TRUE(r && (*r)["ok"] == true) << bridge_output();
+    ASSERT_EQ(stack_.sim_register(1, "FA00"), kRunForward);
+    const std::size_t from = watcher_.count();
+    const auto killed = std::chrono::steady_clock::now();
+    ASSERT_EQ(::kill(bridge_->pid(), SIGKILL), 0);
+    EXPECT_TRUE(watcher_.wait(topic("status"), [](const Message& m) { return m.payload == "offline"; }, 10s, from));
+    // The lease (1 s) runs out without the bridge's renewals: drivebusd writes the ramp stop.
+    ASSERT_TRUE(wait_until([&] { return stack_.sim_register(1, "FA00") == kStop; }, 10s));
+    const auto took = std::chrono::steady_clock::now() - killed;
+    EXPECT_LT(took, 3s) << "the fallback came " << std::chrono::duration_cast<std::chrono::milliseconds>(took).count()
+                        << " ms after the bridge died, with a lease of 1 s";
+}
+
+TEST_F(MqttBridge, ReconnectsAndRepublishesAfterABrokerRestart) {
+    start_bridge();
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    broker_.stop();
+    broker_.start();  // no persistence: the retained messages are gone with the old broker
+    const auto restarted = std::chrono::steady_clock::now();
+    Watcher fresh(broker_.port(), "drivebus/" + node_ + "/#");
+    EXPECT_TRUE(fresh.wait(
+        topic("status"), [](const Message& m) { return m.payload == "online"; }, 10s))
+        << bridge_output();
+    EXPECT_TRUE(fresh.wait(
+        drive_topic("pump", "state"), [](const Message& m) { return parsed(m).is_object(); }, 10s))
+        << bridge_output();
+    EXPECT_LT(std::chrono::steady_clock::now() - restarted, 5s);
+}
+
+TEST_F(MqttBridge, BrokerDownAtStartIsRetriedAndLoggedOnce) {
+    broker_.stop();
+    start_bridge({}, true);
+    // Several attempts (100 ms doubling to 1 s) go by, each a debug line: one warning.
+    ASSERT_TRUE(wait_until([&] { return bridge_output().find("attempt 4 failed") != std::string::npos; }, 20s))
+        << bridge_output();
+    const auto out = bridge_output();
+    EXPECT_EQ(out.find("cannot reach broker"), out.rfind("cannot reach broker")) << out;
+    broker_.start();
+    Watcher fresh(broker_.port(), "drivebus/" + node_ + "/#");
+    EXPECT_TRUE(fresh.wait(
+        topic("status"), [](const Message& m) { return m.payload == "online"; }, 10s))
+        << bridge_output();
+    EXPECT_TRUE(wait_until([&] { return bridge_output().find("after ") != std::string::npos; }, 5s)) << bridge_output();
+}
+
+}  // namespace
+}  // namespace drivebus::test
