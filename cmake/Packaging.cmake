@@ -19,7 +19,7 @@ if(TARGET drivebusctl)
 endif()
 
 # Man pages, by the section in their file name.
-foreach(page drivebusd.8 drivebusd.toml.5 drivebusctl.1 drivebus-sim.1 drivebus-gateway.8)
+foreach(page drivebusd.8 drivebusd.toml.5 drivebusctl.1 drivebus-sim.1 drivebus-gateway.8 drivebus-mqtt.1)
   string(REGEX MATCH "[0-9]$" section "${page}")
   install(FILES ${PROJECT_SOURCE_DIR}/man/${page} DESTINATION ${CMAKE_INSTALL_MANDIR}/man${section})
 endforeach()
@@ -32,7 +32,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/README.md ${docs} DESTINATION ${CMAKE_INSTAL
 # every package also carries as /usr/share/doc/PACKAGE/copyright.
 install(FILES ${PROJECT_SOURCE_DIR}/debian/copyright DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(FILES ${PROJECT_SOURCE_DIR}/examples/atv21-atv58.toml ${PROJECT_SOURCE_DIR}/examples/gpio.toml
-              ${PROJECT_SOURCE_DIR}/examples/sim.toml
+              ${PROJECT_SOURCE_DIR}/examples/sim.toml ${PROJECT_SOURCE_DIR}/examples/mqtt.toml
         DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples)
 
 # The default /etc/drivebus/drivebusd.toml: the real-board example (sim.toml names a pty of the

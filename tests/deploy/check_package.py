@@ -3,9 +3,9 @@
 """Check the Debian packages that `dpkg-buildpackage -us -uc -b` built (debian/), as dpkg sees
 them: scripts/package-check runs it on the .debs of a fresh build.
 
-- exactly the seven packages (drivebusd, drivebus-common, libdrivebus0, libdrivebus-dev,
-  drivebusctl, drivebus-sim, drivebus-gateway, each at VERSION; debug symbol packages aside), each with its
-  fields: Architecture, a Maintainer that is not @localhost, the dependencies between them;
+- exactly the eight packages (drivebusd, drivebus-common, libdrivebus0, libdrivebus-dev,
+  drivebusctl, drivebus-sim, drivebus-gateway, drivebus-mqtt, each at VERSION; debug symbol
+  packages aside), each with its fields: Architecture, a Maintainer that is not @localhost, the dependencies between them;
 - each file in the package it belongs to and in no other: the table of PACKAGES below;
 - no udev rule anywhere (/lib/udev/rules.d, /usr/lib/udev/rules.d, /etc/udev);
 - every man page compressed (.gz), nothing under /usr/share/man uncompressed;
@@ -56,6 +56,7 @@ PACKAGES = {
         "/usr/share/doc/drivebus/examples/atv21-atv58.toml",
         "/usr/share/doc/drivebus/examples/gpio.toml",
         "/usr/share/doc/drivebus/examples/sim.toml",
+        "/usr/share/doc/drivebus/examples/mqtt.toml",
         "/usr/share/doc/drivebus/udev/README.md",
     ],
     "libdrivebus0": [
@@ -82,13 +83,18 @@ PACKAGES = {
         "/usr/sbin/drivebus-gateway",
         "/usr/share/man/man8/drivebus-gateway.8.gz",
     ],
+    "drivebus-mqtt": [
+        "/usr/bin/drivebus-mqtt",
+        "/usr/share/man/man1/drivebus-mqtt.1.gz",
+        "/lib/systemd/system/drivebus-mqtt.service",
+    ],
 }
 # Files that must be there (the patterns above only say where a file may be).
 REQUIRED = {
     "drivebusd": PACKAGES["drivebusd"],
     "drivebus-common": PACKAGES["drivebus-common"][:3] + [
         "/usr/share/doc/drivebus/README.md", "/usr/share/doc/drivebus/deployment.md",
-        "/usr/share/doc/drivebus/configuration.md"] + PACKAGES["drivebus-common"][4:],
+        "/usr/share/doc/drivebus/configuration.md", "/usr/share/doc/drivebus/mqtt.md"] + PACKAGES["drivebus-common"][4:],
     "libdrivebus0": PACKAGES["libdrivebus0"],
     "libdrivebus-dev": ["/usr/include/drivebus/client.hpp", "/usr/include/drivebus/version.hpp",
                         "/usr/lib/{multiarch}/libdrivebus.so",
@@ -98,10 +104,11 @@ REQUIRED = {
     "drivebusctl": PACKAGES["drivebusctl"],
     "drivebus-sim": PACKAGES["drivebus-sim"],
     "drivebus-gateway": PACKAGES["drivebus-gateway"],
+    "drivebus-mqtt": PACKAGES["drivebus-mqtt"],
 }
 # Named by the man pages as the administrator's, not installed: the udev rule of the board, and
 # the configuration fragments (the drivebusd package ships their directory, empty).
-ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/")
+ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/", "/etc/drivebus/mqtt.toml")
 CONFFILES = ["/etc/drivebus/drivebusd.toml", "/etc/drivebus/roudi.toml"]
 GATEWAY_CONFFILES = ["/etc/drivebus/gateway.toml"]
 # drivebus-gateway's snippets (dh_installsystemd): enabled, started, stopped on removal, purged.
@@ -237,6 +244,8 @@ def main(argv):
                 "drivebus-sim": [f"drivebus-common (= {version})"],
                 # drivebusd: the daemon it is a client of, and the sysusers.d file of its user.
                 "drivebus-gateway": [f"drivebusd (= {version})", f"libdrivebus0 (>= {version})"],
+                # drivebusd: the groups and the user of the bridge (drivebus.conf), a local drivebusd.
+                "drivebus-mqtt": [f"drivebusd (= {version})", f"libdrivebus0 (>= {version})", "libmosquitto1"],
             }.get(name, [])
             for d in wanted_depends:
                 if d not in depends:
@@ -317,8 +326,20 @@ def main(argv):
                 for pattern in patterns:
                     if not re.search(pattern, text):
                         problems.append(f"drivebus-gateway: {script} has no /{pattern}/")
+        # drivebus-mqtt: its unit is not enabled, stopped on removal, forgotten on purge.
+        control = controls.get("drivebus-mqtt")
+        if control:
+            for script, pattern in (("postinst", r"deb-systemd-helper debian-installed 'drivebus-mqtt\.service'"),
+                                    ("postrm", r"deb-systemd-helper purge 'drivebus-mqtt\.service'")):
+                path = os.path.join(control, script)
+                text = open(path, encoding="utf-8").read() if os.path.exists(path) else ""
+                if not re.search(pattern, text):
+                    problems.append(f"drivebus-mqtt: {script} has no /{pattern}/")
+            path = os.path.join(control, "postinst")
+            if os.path.exists(path) and re.search(r"deb-systemd-helper enable 'drivebus-mqtt", open(path).read()):
+                problems.append("drivebus-mqtt: postinst enables drivebus-mqtt.service")
         for name, control in controls.items():
-            if name not in ("drivebusd", "drivebus-gateway") and any(
+            if name not in ("drivebusd", "drivebus-gateway", "drivebus-mqtt") and any(
                     os.path.exists(os.path.join(control, s)) for s in ("preinst", "postinst", "prerm", "postrm")):
                 problems.append(f"{name}: has maintainer scripts ({os.listdir(control)})")
 
@@ -345,8 +366,10 @@ def main(argv):
         units = sorted(glob.glob(os.path.join(root, "lib/systemd/system/*.service")))
         gateway_root = roots.get("drivebus-gateway", "")
         gateway_units = sorted(glob.glob(os.path.join(gateway_root, "lib/systemd/system/*.service")))
+        mqtt_root = roots.get("drivebus-mqtt", "")
+        mqtt_units = sorted(glob.glob(os.path.join(mqtt_root, "lib/systemd/system/*.service"))) if mqtt_root else []
         analyze = shutil.which("systemd-analyze")
-        for unit in units + gateway_units:
+        for unit in units + gateway_units + mqtt_units:
             base = os.path.basename(unit)
             with open(unit, encoding="utf-8") as f:
                 text = f.read()
@@ -357,7 +380,8 @@ def main(argv):
                     if "drivebus" in os.path.basename(program) and program not in owner:
                         problems.append(f"{base}: ExecStart={program} is not in a package")
                     for opt, value in zip(argv_, argv_[1:]):
-                        if opt in ("--config", "-c") and "%" not in value and value not in owner:
+                        if (opt in ("--config", "-c") and "%" not in value and value not in owner
+                                and value not in ADMIN_PATHS):
                             problems.append(f"{base}: {opt} {value} is not in a package")
                 if line.startswith("Documentation="):
                     for doc in line.split("=", 1)[1].split():
@@ -365,6 +389,7 @@ def main(argv):
                             problems.append(f"{base}: Documentation={doc} is not in a package")
             if analyze and (base != "drivebus-roudi.service" or shutil.which("iox-roudi")):
                 program = (os.path.join(gateway_root, "usr/sbin/drivebus-gateway") if base == "drivebus-gateway.service"
+                           else os.path.join(mqtt_root, "usr/bin/drivebus-mqtt") if base == "drivebus-mqtt.service"
                            else os.path.join(root, "usr/sbin/drivebusd"))
                 p = run([sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)), "verify_unit.py"),
                          analyze, program, unit])
@@ -375,6 +400,8 @@ def main(argv):
             problems.append(f"drivebusd: {len(units)} units, wanted 3")
         if len(gateway_units) != 1:
             problems.append(f"drivebus-gateway: {len(gateway_units)} units, wanted 1")
+        if len(mqtt_units) != 1:
+            problems.append(f"drivebus-mqtt: {len(mqtt_units)} units, wanted 1")
         if not analyze:
             print("no systemd-analyze: the units are not verified")
 
