@@ -64,7 +64,7 @@ Json lease_json(const shm::LeaseStatus& lease) {
 
 // Fields that change with every sample and say nothing about the drive.
 bool ignored(std::string_view key) {
-    return key == "sequence" || key == "counters" || key == "raw" || key == "expiries_seen";
+    return key == "sequence" || key == "counters" || key == "raw" || key == "polled_ns";
 }
 
 bool differs(const Json& a, const Json& b, double deadband, bool is_value) {
@@ -100,13 +100,18 @@ Json drive_state(const shm::DriveSnapshot& snapshot, const Profile* profile) {
     j["health"] = shm::to_string(snapshot.health);
     j["sequence"] = snapshot.sequence;
     Json regs = Json::object();
+    std::int64_t polled_ns = 0;
     const std::size_t count = std::min<std::size_t>(snapshot.register_count, snapshot.registers.size());
     for (std::size_t i = 0; i < count; ++i) {
         const auto& sample = snapshot.registers[i];
+        if (sample.valid != 0) {
+            polled_ns = std::max(polled_ns, sample.time_ns);
+        }
         const RegisterInfo* info = profile != nullptr ? profile->find(sample.address) : nullptr;
         regs[info != nullptr ? info->name : hex(sample.address)] = register_json(sample, info);
     }
     j["registers"] = std::move(regs);
+    j["polled_ns"] = polled_ns;
     if (profile != nullptr && profile->control) {
         j["altivar"] = altivar_json(*profile, snapshot);
     }

@@ -138,6 +138,7 @@ TEST(MqttPayload, DriveStateHasNamesUnitsAndTheAltivarDecoding) {
     EXPECT_EQ(j["altivar"]["running"], true);
     EXPECT_DOUBLE_EQ(j["altivar"]["output_hz"].get<double>(), 60.0);
     EXPECT_EQ(j["lease"]["state"], "free");
+    EXPECT_EQ(j["polled_ns"], 1);  // the newest valid sample's time
     // Without a profile: registers by number, raw values.
     const auto bare = drive_state(pump_snapshot(6000), nullptr);
     EXPECT_EQ(bare["registers"]["0xFD00"]["value"], 6000.0);

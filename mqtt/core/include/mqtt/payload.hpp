@@ -17,6 +17,8 @@ using Json = nlohmann::json;
 // A drive's state: identity, health, each polled register (profile name, engineering value,
 // unit, raw word; value null when not valid), the Altivar decoding when the profile has a
 // [control] section, and the control lease. `profile` may be null (registers by number).
+// `polled_ns`: the end of the newest reply the values came from, on the board's
+// CLOCK_MONOTONIC (for latency measurements on the board; it means nothing elsewhere).
 [[nodiscard]] Json drive_state(const shm::DriveSnapshot& snapshot, const Profile* profile);
 
 // The bus status: line, drives, counters, and whether drivebusd is heard from.
