@@ -67,6 +67,8 @@ Bridge::~Bridge() {
         worker_.join();
     }
     link_.reset();
+    // The buses' subscriptions call back into this object (mutex_, wake_): gone first.
+    buses_.clear();
 }
 
 void Bridge::stop() {
