@@ -11,7 +11,8 @@
 // the same run through the same broker, the broker-only floor: a publish → subscribe round
 // trip of a small message from another client. To make every poll news, the benchmark changes
 // one drive's W450 through the simulator's control socket every 20 ms (round robin); a state
-// is matched to its reply by the reply time drivebusd recorded (the message's polled_ns).
+// is matched to its reply by the reply time drivebusd recorded (the message's polled_ns). The
+// broker runs with set_tcp_nodelay, and both publishers with TCP_NODELAY.
 // Nothing here asserts on speed.
 #include <mosquitto.h>
 #include <signal.h>
@@ -189,6 +190,7 @@ int run(double seconds) {
     std::atomic<bool> stop{false};
     std::thread floor([&] {
         mosquitto* pub = mosquitto_new(nullptr, true, nullptr);
+        mosquitto_int_option(pub, MOSQ_OPT_TCP_NODELAY, 1);  // as the bridge
         mosquitto_connect(pub, "127.0.0.1", broker.port(), 30);
         mosquitto_loop_start(pub);
         while (!stop.load()) {

@@ -38,6 +38,9 @@ BrokerLink::BrokerLink(const Config& config, Callbacks callbacks)
     }
     mosquitto_threaded_set(mosq_, true);
     mosquitto_int_option(mosq_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    // Each state is a message of its own: Nagle's algorithm would hold it back until the broker
+    // acknowledged the previous one (tens of milliseconds with delayed ACKs).
+    mosquitto_int_option(mosq_, MOSQ_OPT_TCP_NODELAY, 1);
     mosquitto_connect_callback_set(mosq_, &BrokerLink::on_connect);
     mosquitto_disconnect_callback_set(mosq_, &BrokerLink::on_disconnect);
     mosquitto_publish_callback_set(mosq_, &BrokerLink::on_publish);

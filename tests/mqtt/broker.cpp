@@ -53,9 +53,10 @@ Broker::Broker(int port) : port_(port == 0 ? free_port() : port) {
     dir_ =
         fs::temp_directory_path() / ("drivebus-mosquitto-" + std::to_string(::getpid()) + "-" + std::to_string(port_));
     fs::create_directories(dir_);
-    std::ofstream(dir_ / "mosquitto.conf") << "listener " << port_ << " 127.0.0.1\nallow_anonymous true\n"
-                                           << "persistence false\nlog_dest stderr\nlog_type error\nlog_type warning\n"
-                                           << "log_type notice\nlog_type information\n";
+    std::ofstream(dir_ / "mosquitto.conf")
+        << "listener " << port_ << " 127.0.0.1\nallow_anonymous true\n"
+        << "persistence false\nset_tcp_nodelay true\nlog_dest stderr\nlog_type error\nlog_type warning\n"
+        << "log_type notice\nlog_type information\n";
     start();
 }
 
