@@ -106,15 +106,12 @@ bool BrokerLink::publish(const std::string& topic, std::string_view payload, int
         ++dropped_;
         return false;
     }
-    // QoS 1: the mid is booked under the lock before the acknowledgement can come, so that the
-    // set holds exactly what the broker has not acknowledged.
-    std::unique_lock lock(in_flight_mutex_, std::defer_lock);
-    if (qos > 0) {
-        lock.lock();
-        if (in_flight_.size() >= config_.limits.results_in_flight) {
-            ++dropped_;
-            return false;
-        }
+    // The mid is booked under the lock before its on_publish can come (written, or acknowledged),
+    // so that the sets hold exactly what is still outstanding.
+    std::lock_guard lock(in_flight_mutex_);
+    if (qos > 0 ? in_flight_.size() >= config_.limits.results_in_flight : unwritten_.size() >= kMaxUnwritten) {
+        ++dropped_;
+        return false;
     }
     int mid = 0;
     const int rc =
@@ -123,9 +120,7 @@ bool BrokerLink::publish(const std::string& topic, std::string_view payload, int
         ++dropped_;
         return false;
     }
-    if (qos > 0) {
-        in_flight_.insert(mid);
-    }
+    (qos > 0 ? in_flight_ : unwritten_).insert(mid);
     return true;
 }
 
@@ -141,6 +136,7 @@ void BrokerLink::on_connect(mosquitto* m, void* self, int rc) {
     {
         std::lock_guard lock(link.in_flight_mutex_);
         link.in_flight_.clear();
+        link.unwritten_.clear();  // libmosquitto drops unsent QoS 0 messages with the connection
     }
     link.connected_ = true;
     std::uint64_t failed = 0;
@@ -171,7 +167,9 @@ void BrokerLink::on_publish(mosquitto* /*m*/, void* self, int mid) {
     auto& link = *static_cast<BrokerLink*>(self);
     {
         std::lock_guard lock(link.in_flight_mutex_);
+        // QoS 0: written to the socket; QoS 1: acknowledged by the broker.
         link.in_flight_.erase(mid);
+        link.unwritten_.erase(mid);
     }
     if (mid == link.goodbye_mid_.load()) {
         link.goodbye_acked_ = true;

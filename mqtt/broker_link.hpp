@@ -34,6 +34,8 @@ struct LinkCounters {
 
 class BrokerLink {
 public:
+    static constexpr std::size_t kMaxUnwritten = 256;
+
     struct Callbacks {
         std::function<void()> connected;  // on the network thread, after the birth message
         std::function<void(std::string_view topic, std::string_view payload)> message;
@@ -50,7 +52,9 @@ public:
     // Publishes "offline" (a clean disconnect does not send the will), disconnects, joins.
     void stop();
 
-    // False when dropped (not connected, or `results_in_flight` QoS 1 messages unacknowledged).
+    // False when dropped: not connected, `results_in_flight` QoS 1 messages unacknowledged, or
+    // (QoS 0) kMaxUnwritten messages not yet written to the socket (a broker that stopped
+    // reading without closing the connection).
     bool publish(const std::string& topic, std::string_view payload, int qos, bool retain);
     [[nodiscard]] bool connected() const noexcept { return connected_.load(); }
     [[nodiscard]] LinkCounters counters() const;
@@ -75,6 +79,7 @@ private:
     std::atomic<bool> socket_open_{false};
     std::mutex in_flight_mutex_;
     std::unordered_set<int> in_flight_;  // mids of QoS 1 messages not yet acknowledged
+    std::unordered_set<int> unwritten_;  // mids of QoS 0 messages libmosquitto has not written yet
     std::atomic<std::uint64_t> dropped_{0};
     std::atomic<int> goodbye_mid_{-1};
     std::atomic<bool> goodbye_acked_{false};
