@@ -127,8 +127,16 @@ bool BrokerLink::publish(const std::string& topic, std::string_view payload, int
 void BrokerLink::on_connect(mosquitto* m, void* self, int rc) {
     auto& link = *static_cast<BrokerLink*>(self);
     if (rc != 0) {
-        log::warning("broker " + endpoint(link.config_.broker) +
-                     " refused the connection: " + mosquitto_connack_string(rc));
+        // Once, then counted with the other failed attempts (the loop's back-off).
+        bool first = false;
+        {
+            std::lock_guard lock(link.mutex_);
+            first = link.backoff_.failures() == 0;
+        }
+        if (first) {
+            log::warning("broker " + endpoint(link.config_.broker) + " refused the connection: " +
+                         mosquitto_connack_string(rc) + "; retrying with back-off, failures counted");
+        }
         return;
     }
     const auto filter = link.topics_.set_filter();

@@ -17,6 +17,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using Json = nlohmann::json;
+namespace fs = std::filesystem;
 
 constexpr std::uint16_t kRunForward = 0xC400;  // profiles/atv21.toml [control]
 constexpr std::uint16_t kStop = 0xC000;
@@ -25,6 +26,14 @@ StackOptions stack_options() {
     StackOptions o;
     o.drive_extra = "  lease = \"1s\"\n  fallback = \"stop\"\n";
     return o;
+}
+
+std::size_t occurrences(const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) {
+        ++n;
+    }
+    return n;
 }
 
 Json parsed(const Message& m) {
@@ -253,6 +262,125 @@ TEST_F(MqttBridge, BrokerDownAtStartIsRetriedAndLoggedOnce) {
         topic("status"), [](const Message& m) { return m.payload == "online"; }, 10s))
         << bridge_output();
     EXPECT_TRUE(wait_until([&] { return bridge_output().find("after ") != std::string::npos; }, 5s)) << bridge_output();
+}
+
+// TLS with a client certificate, and a username and password: a CA, a server certificate for
+// 127.0.0.1 and a client certificate made with openssl, a broker that requires all of them.
+class MqttBridgeTls : public ::testing::Test {
+protected:
+    MqttBridgeTls() : dir_(fs::temp_directory_path() / ("drivebus-mqtt-tls-" + std::to_string(::getpid()))) {
+        fs::create_directories(dir_);
+        const auto p = [&](const char* name) { return (dir_ / name).string(); };
+        std::ofstream(p("san.cnf")) << "subjectAltName=IP:127.0.0.1\n";
+        const std::vector<std::vector<std::string>> steps = {
+            {"/usr/bin/openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+             "-keyout", p("ca.key"), "-out", p("ca.pem"), "-days", "2", "-subj", "/CN=drivebus test CA"},
+            {"/usr/bin/openssl", "req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+             "-keyout", p("server.key"), "-out", p("server.csr"), "-subj", "/CN=127.0.0.1"},
+            {"/usr/bin/openssl", "x509", "-req", "-in", p("server.csr"), "-CA", p("ca.pem"), "-CAkey", p("ca.key"),
+             "-CAcreateserial", "-out", p("server.pem"), "-days", "2", "-extfile", p("san.cnf")},
+            {"/usr/bin/openssl", "req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+             "-keyout", p("client.key"), "-out", p("client.csr"), "-subj", "/CN=board"},
+            {"/usr/bin/openssl", "x509", "-req", "-in", p("client.csr"), "-CA", p("ca.pem"), "-CAkey", p("ca.key"),
+             "-CAcreateserial", "-out", p("client.pem"), "-days", "2"},
+            {MOSQUITTO_PASSWD_PATH, "-b", "-c", p("passwd"), "board", "s3cret"},
+        };
+        for (const auto& step : steps) {
+            const auto [status, out] = run_program(step);
+            if (status != 0) {
+                throw std::runtime_error(step[0] + " " + step[1] + ": " + out);
+            }
+        }
+        // mosquitto started as root runs as the user mosquitto: it must read them (test files only).
+        for (const auto& entry : fs::directory_iterator(dir_)) {
+            fs::permissions(entry.path(), fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
+                                              fs::perms::others_read);
+        }
+        std::ofstream(p("board.password")) << "s3cret\n";
+        std::ofstream(p("wrong.password")) << "guess\n";
+        broker_ = std::make_unique<Broker>(0, "cafile " + p("ca.pem") + "\ncertfile " + p("server.pem") + "\nkeyfile " +
+                                                  p("server.key") +
+                                                  "\nrequire_certificate true\nallow_anonymous false\n"
+                                                  "password_file " +
+                                                  p("passwd") + "\n");
+    }
+    ~MqttBridgeTls() override {
+        bridge_.reset();
+        broker_.reset();
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+    MqttBridgeTls(const MqttBridgeTls&) = delete;
+    MqttBridgeTls& operator=(const MqttBridgeTls&) = delete;
+    MqttBridgeTls(MqttBridgeTls&&) = delete;
+    MqttBridgeTls& operator=(MqttBridgeTls&&) = delete;
+
+    void start_bridge(const std::string& password_file) {
+        const auto config = dir_ / "mqtt.toml";
+        std::ofstream(config) << "node = \"tls\"\n[broker]\nhost = \"127.0.0.1\"\nport = " << broker_->port()
+                              << "\nusername = \"board\"\npassword_file = \"" << (dir_ / password_file).string()
+                              << "\"\nreconnect_min = \"100ms\"\nreconnect_max = \"500ms\"\n[broker.tls]\ncafile = \""
+                              << (dir_ / "ca.pem").string() << "\"\ncertfile = \"" << (dir_ / "client.pem").string()
+                              << "\"\nkeyfile = \"" << (dir_ / "client.key").string()
+                              << "\"\n[[bus]]\nname = \"nosuchbus\"\n";
+        bridge_ = std::make_unique<Child>(std::vector<std::string>{DRIVEBUS_MQTT_PATH, "--config", config.string()});
+    }
+
+    // The retained node status, read over TLS with the client certificate.
+    std::pair<int, std::string> node_status() {
+        return run_program({MOSQUITTO_SUB_PATH,
+                            "-h",
+                            "127.0.0.1",
+                            "-p",
+                            std::to_string(broker_->port()),
+                            "--cafile",
+                            (dir_ / "ca.pem").string(),
+                            "--cert",
+                            (dir_ / "client.pem").string(),
+                            "--key",
+                            (dir_ / "client.key").string(),
+                            "-u",
+                            "board",
+                            "-P",
+                            "s3cret",
+                            "-t",
+                            "drivebus/tls/status",
+                            "-C",
+                            "1",
+                            "-W",
+                            "3",
+                            "--retained-only"});
+    }
+
+    fs::path dir_;
+    std::unique_ptr<Broker> broker_;
+    std::unique_ptr<Child> bridge_;
+};
+
+TEST_F(MqttBridgeTls, ConnectsWithACertificateAndAPassword) {
+    start_bridge("board.password");
+    ASSERT_TRUE(wait_until([&] { return bridge_->output().find("connected to broker") != std::string::npos; }, 15s))
+        << bridge_->output() << broker_->output();
+    std::pair<int, std::string> status;
+    ASSERT_TRUE(wait_until(
+        [&] {
+            status = node_status();
+            return status.first == 0 && status.second.find("online") != std::string::npos;
+        },
+        15s))
+        << status.second << broker_->output();
+}
+
+TEST_F(MqttBridgeTls, AWrongPasswordIsRefusedAndRetried) {
+    start_bridge("wrong.password");
+    ASSERT_TRUE(wait_until([&] { return bridge_->output().find("refused the connection") != std::string::npos; }, 15s))
+        << bridge_->output() << broker_->output();
+    // Retried with back-off and refused each time (the broker says so), logged once.
+    ASSERT_TRUE(wait_until([&] { return occurrences(broker_->output(), "not authorised") >= 3; }, 15s))
+        << broker_->output();
+    EXPECT_EQ(occurrences(bridge_->output(), "refused the connection"), 1U) << bridge_->output();
+    EXPECT_EQ(bridge_->output().find("connected to broker"), std::string::npos) << bridge_->output();
+    EXPECT_EQ(::kill(bridge_->pid(), 0), 0);
 }
 
 }  // namespace

@@ -46,7 +46,7 @@ bool accepts(int port) {
 
 }  // namespace
 
-Broker::Broker(int port) : port_(port == 0 ? free_port() : port) {
+Broker::Broker(int port, const std::string& extra) : port_(port == 0 ? free_port() : port) {
     if (std::string(MOSQUITTO_PATH).empty() || !fs::exists(MOSQUITTO_PATH)) {
         throw std::runtime_error("no mosquitto broker (Debian package mosquitto): scripts/setup installs it");
     }
@@ -54,9 +54,11 @@ Broker::Broker(int port) : port_(port == 0 ? free_port() : port) {
         fs::temp_directory_path() / ("drivebus-mosquitto-" + std::to_string(::getpid()) + "-" + std::to_string(port_));
     fs::create_directories(dir_);
     std::ofstream(dir_ / "mosquitto.conf")
-        << "listener " << port_ << " 127.0.0.1\nallow_anonymous true\n"
+        << "listener " << port_ << " 127.0.0.1\n"
+        << (extra.find("allow_anonymous") == std::string::npos ? "allow_anonymous true\n" : "")
         << "persistence false\nset_tcp_nodelay true\nlog_dest stderr\nlog_type error\nlog_type warning\n"
-        << "log_type notice\nlog_type information\n";
+        << "log_type notice\nlog_type information\n"
+        << extra;
     start();
 }
 

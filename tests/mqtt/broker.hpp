@@ -23,7 +23,8 @@ namespace drivebus::test {
 class Broker {
 public:
     // Starts mosquitto on a free port of 127.0.0.1 (or on `port`), and waits until it accepts.
-    explicit Broker(int port = 0);
+    // `extra`: more lines of its configuration (TLS, authentication).
+    explicit Broker(int port = 0, const std::string& extra = {});
     ~Broker();
     Broker(const Broker&) = delete;
     Broker& operator=(const Broker&) = delete;
@@ -31,6 +32,7 @@ public:
     Broker& operator=(Broker&&) = delete;
 
     [[nodiscard]] int port() const noexcept { return port_; }
+    [[nodiscard]] std::string output() const { return process_ ? process_->output() : std::string(); }
     // Stops it (SIGTERM, waits for the exit).
     void stop();
     // Starts it again on the same port.
