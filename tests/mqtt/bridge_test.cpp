@@ -264,6 +264,21 @@ TEST_F(MqttBridge, BrokerDownAtStartIsRetriedAndLoggedOnce) {
     EXPECT_TRUE(wait_until([&] { return bridge_output().find("after ") != std::string::npos; }, 5s)) << bridge_output();
 }
 
+TEST_F(MqttBridge, DrivebusdStoppedIsShownOnTheBusStatus) {
+    start_bridge();
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    const std::size_t from = watcher_.count();
+    EXPECT_EQ(stack_.stop_daemon(), 0);
+    const auto gone = watcher_.wait(
+        topic(stack_.bus() + "/status"), [](const Message& m) { return parsed(m).value("drivebusd", "") != "running"; },
+        15s, from);
+    ASSERT_TRUE(gone) << bridge_output();
+    EXPECT_EQ(parsed(*gone)["drivebusd"], "silent") << gone->payload;
+    // The bridge itself stays up and online.
+    EXPECT_EQ(::kill(bridge_->pid(), 0), 0);
+    EXPECT_TRUE(mosquitto_sub_one(broker_.port(), topic("status")).second.find("online") != std::string::npos);
+}
+
 // TLS with a client certificate, and a username and password: a CA, a server certificate for
 // 127.0.0.1 and a client certificate made with openssl, a broker that requires all of them.
 class MqttBridgeTls : public ::testing::Test {
