@@ -336,7 +336,9 @@ def main(argv):
                 if not re.search(pattern, text):
                     problems.append(f"drivebus-mqtt: {script} has no /{pattern}/")
             path = os.path.join(control, "postinst")
-            if os.path.exists(path) and re.search(r"deb-systemd-helper enable 'drivebus-mqtt", open(path).read()):
+            # As drivebus-roudi.service: enabled again only where the administrator had enabled it.
+            if os.path.exists(path) and re.search(r"deb-systemd-helper enable 'drivebus-mqtt\.service' >/dev/null "
+                                                  r"\|\| true\n\telse", open(path, encoding="utf-8").read()):
                 problems.append("drivebus-mqtt: postinst enables drivebus-mqtt.service")
         for name, control in controls.items():
             if name not in ("drivebusd", "drivebus-gateway", "drivebus-mqtt") and any(
