@@ -6,7 +6,7 @@ Each library exports its own include directory, so a source file can include onl
 its target links. This check reads the build's compile_commands.json and fails when a source
 file of a layer is compiled with the include directory of a layer it must not see (a target
 that links too much): the master with the configuration, the libraries, the simulator or the
-gateway (a libdrivebus client) with anything of drivebusd.
+gateway or the MQTT bridge (libdrivebus clients) with anything of drivebusd.
 
 usage: check_layers.py SOURCE_DIR compile_commands.json
 """
@@ -29,6 +29,9 @@ RULES = [
     ("sim/", DAEMON + ["client/"]),
     ("gateway/", DAEMON + ["sim/"]),
     ("client/", DAEMON + ["sim/"]),
+    # The MQTT bridge is a client: libdrivebus's public headers, never drivebusd's layers or
+    # the library's insides.
+    ("mqtt/", DAEMON + ["client/", "sim/"]),
 ]
 
 
