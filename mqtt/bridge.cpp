@@ -111,6 +111,11 @@ void Bridge::refuse(const Topics::Target& target, const Json& id, std::string_vi
         std::lock_guard lock(mutex_);
         ++counters_.commands_refused;
     }
+    if (log::enabled(log::Level::Debug)) {
+        log::debug("command " + id.dump() + " to " + target.bus + "/" + target.drive +
+                       " refused: " + std::string(reason) + ": " + std::string(message),
+                   {.bus = target.bus, .drive = target.drive});
+    }
     link_->publish(topics_.result(target.bus, target.drive), result_error(id, reason, message).dump(), 1, false);
 }
 
@@ -218,6 +223,11 @@ void Bridge::carry_out(const Job& job) {
             break;
         }
         if (!done) {
+            if (log::enabled(log::Level::Debug)) {
+                log::debug(
+                    "command " + command->id.dump() + " to " + job.bus + "/" + job.drive + ": " + done.error().message,
+                    {.bus = job.bus, .drive = job.drive});
+            }
             const std::string what = a.kind == Action::Kind::Write ? "write " + a.name + ": " : std::string();
             link_->publish(topics_.result(job.bus, job.drive),
                            result_error(command->id, reason_of(done.error().kind), what + done.error().message).dump(),
@@ -228,6 +238,10 @@ void Bridge::carry_out(const Job& job) {
     if (!renewed) {
         // A write to a register outside the lease's own does not renew it: the command's arrival does.
         (void)drive->drive.keep_alive();
+    }
+    if (log::enabled(log::Level::Debug)) {
+        log::debug("command " + command->id.dump() + " to " + job.bus + "/" + job.drive + ": done",
+                   {.bus = job.bus, .drive = job.drive});
     }
     link_->publish(topics_.result(job.bus, job.drive), result_ok(command->id).dump(), 1, false);
 }
