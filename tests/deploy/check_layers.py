@@ -5,7 +5,7 @@
 Each library exports its own include directory, so a source file can include only the layers
 its target links. This check reads the build's compile_commands.json and fails when a source
 file of a layer is compiled with the include directory of a layer it must not see (a target
-that links too much): the master with the configuration, the libraries, the simulator or the
+that links too much): the master with the configuration; the libraries, the simulator, the
 gateway or the MQTT bridge (libdrivebus clients) with anything of drivebusd.
 
 usage: check_layers.py SOURCE_DIR compile_commands.json
