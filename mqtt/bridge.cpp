@@ -237,7 +237,8 @@ void Bridge::carry_out(const Job& job) {
     }
     if (!renewed) {
         // A write to a register outside the lease's own does not renew it: the command's arrival does.
-        (void)drive->drive.keep_alive();
+        // NotPermitted when the bridge holds no lease on the drive: nothing to renew, no error.
+        [[maybe_unused]] const auto kept = drive->drive.keep_alive();
     }
     if (log::enabled(log::Level::Debug)) {
         log::debug("command " + command->id.dump() + " to " + job.bus + "/" + job.drive + ": done",

@@ -103,16 +103,20 @@ std::expected<Action, std::string> write_of(const RegisterValue& r, const Profil
         }
         return a;
     }
+    if (!r.value) {
+        return std::unexpected("register " + a.name + ": no value");
+    }
+    const double value = *r.value;
     if (info == nullptr) {
-        if (*r.value < 0 || *r.value > 0xFFFF || std::floor(*r.value) != *r.value) {
+        if (value < 0 || value > 0xFFFF || std::floor(value) != value) {
             return std::unexpected("register " + a.name + ": without a profile, give a word 0-65535");
         }
-        a.raw = static_cast<std::uint16_t>(*r.value);
+        a.raw = static_cast<std::uint16_t>(value);
         return a;
     }
-    const auto raw = info->from_engineering(*r.value);
+    const auto raw = info->from_engineering(value);
     if (!raw) {
-        return std::unexpected("register " + a.name + ": " + Json(*r.value).dump() +
+        return std::unexpected("register " + a.name + ": " + Json(value).dump() +
                                (info->unit.empty() ? "" : " " + info->unit) + " is outside the profile's range");
     }
     a.raw = *raw;

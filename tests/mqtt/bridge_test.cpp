@@ -122,9 +122,9 @@ TEST_F(MqttBridge, RetainedStateMatchesTheSimulator) {
     EXPECT_EQ(retained["drive"], "pump");
     EXPECT_EQ(retained["registers"]["FA01"]["raw"].get<int>(), stack_.sim_register(1, "FA01"));
     // The fan is published too, and the bus status.
-    EXPECT_TRUE(watcher_.wait(drive_topic("fan", "state"), [](const Message&) { return true; }, 10s));
+    EXPECT_TRUE(watcher_.wait(drive_topic("fan", "state"), [](const Message&) { return true; }, 20s));
     const auto bus = watcher_.wait(
-        topic(stack_.bus() + "/status"), [](const Message& m) { return parsed(m).value("up", false); }, 10s);
+        topic(stack_.bus() + "/status"), [](const Message& m) { return parsed(m).value("up", false); }, 20s);
     ASSERT_TRUE(bus) << bridge_output();
     EXPECT_EQ(parsed(*bus)["drivebusd"], "running");
 }
@@ -135,7 +135,7 @@ TEST_F(MqttBridge, ACommandReachesTheDriveAndItsResultComesBack) {
     const auto [status, out] =
         mosquitto_pub(broker_.port(), drive_topic("pump", "set"), R"({"id": "c-1", "frequency": 40, "verb": "run"})");
     ASSERT_EQ(status, 0) << out;
-    const auto r = result("pump", "c-1", 10s);
+    const auto r = result("pump", "c-1", 20s);
     ASSERT_TRUE(r) << bridge_output();
     EXPECT_EQ((*r)["ok"], true) << r->dump();
     EXPECT_EQ(stack_.sim_register(1, "FA01"), 4000);
@@ -143,7 +143,7 @@ TEST_F(MqttBridge, ACommandReachesTheDriveAndItsResultComesBack) {
     // The state shows the bridge holding the lease.
     const auto held = watcher_.wait(
         drive_topic("pump", "state"), [](const Message& m) { return parsed(m)["lease"].value("state", "") == "held"; },
-        10s);
+        20s);
     ASSERT_TRUE(held);
     EXPECT_EQ(parsed(*held)["lease"]["holder"].get<std::string>().rfind("drivebus-mqtt", 0), 0U) << held->payload;
 }
@@ -153,7 +153,7 @@ TEST_F(MqttBridge, ACommandToADriveNotEnabledIsRefusedSayingSo) {
     ASSERT_TRUE(online_state(20s)) << bridge_output();
     const auto before = stack_.sim_register(2, "W400");
     ASSERT_EQ(mosquitto_pub(broker_.port(), drive_topic("fan", "set"), R"({"id": 5, "verb": "run"})").first, 0);
-    const auto r = result("fan", 5, 10s);
+    const auto r = result("fan", 5, 20s);
     ASSERT_TRUE(r) << bridge_output();
     EXPECT_EQ((*r)["ok"], false);
     EXPECT_EQ((*r)["reason"], "commands_disabled");
@@ -169,21 +169,21 @@ TEST_F(MqttBridge, HostileCommandsGetAResultAndNoCrash) {
     ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), "{\"id\": \"x\", "));
     const auto malformed = watcher_.wait(
         drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "malformed"; },
-        10s, from);
+        20s, from);
     ASSERT_TRUE(malformed) << bridge_output();
     EXPECT_TRUE(parsed(*malformed)["id"].is_null());
     // Too large: refused unread.
     ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), std::string(200000, '{')));
     EXPECT_TRUE(watcher_.wait(
         drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "too_large"; },
-        10s, from));
+        20s, from));
     // Unknown drive and register.
     ASSERT_TRUE(watcher_.publish(drive_topic("nosuch", "set"), R"({"id": "u", "verb": "stop"})"));
-    const auto unknown = result("nosuch", "u", 10s);
+    const auto unknown = result("nosuch", "u", 20s);
     ASSERT_TRUE(unknown);
     EXPECT_EQ((*unknown)["reason"], "unknown_drive");
     ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), R"({"id": "r", "registers": {"ZZ99": 1}})"));
-    const auto bad_register = result("pump", "r", 10s);
+    const auto bad_register = result("pump", "r", 20s);
     ASSERT_TRUE(bad_register);
     EXPECT_EQ((*bad_register)["reason"], "invalid");
     // A flood: commands beyond the queue are refused as busy at once (results beyond the QoS 1
@@ -193,7 +193,7 @@ TEST_F(MqttBridge, HostileCommandsGetAResultAndNoCrash) {
                          Json{{"id", "f" + std::to_string(i)}, {"frequency", 10 + i % 30}}.dump());
     }
     const auto busy = watcher_.wait(
-        drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "busy"; }, 10s,
+        drive_topic("pump", "result"), [](const Message& m) { return parsed(m).value("reason", "") == "busy"; }, 20s,
         from);
     EXPECT_TRUE(busy) << "a flood of 300 against a queue of 4 refused none";
     // Once the queue has drained, a command is carried out again.
@@ -218,15 +218,15 @@ TEST_F(MqttBridge, KilledTheBridgeLeavesItsWillAndTheDriveReachesItsFallback) {
         mosquitto_pub(broker_.port(), drive_topic("pump", "set"), R"({"id": "go", "frequency": 30, "verb": "run"})")
             .first,
         0);
-    const auto r = result("pump", "go", 10s);
+    const auto r = result("pump", "go", 20s);
     ASSERT_TRUE(r && (*r)["ok"] == true) << bridge_output();
     ASSERT_EQ(stack_.sim_register(1, "FA00"), kRunForward);
     const std::size_t from = watcher_.count();
     const auto killed = std::chrono::steady_clock::now();
     ASSERT_EQ(::kill(bridge_->pid(), SIGKILL), 0);
-    EXPECT_TRUE(watcher_.wait(topic("status"), [](const Message& m) { return m.payload == "offline"; }, 10s, from));
+    EXPECT_TRUE(watcher_.wait(topic("status"), [](const Message& m) { return m.payload == "offline"; }, 20s, from));
     // The lease (1 s) runs out without the bridge's renewals: drivebusd writes the ramp stop.
-    ASSERT_TRUE(wait_until([&] { return stack_.sim_register(1, "FA00") == kStop; }, 10s));
+    ASSERT_TRUE(wait_until([&] { return stack_.sim_register(1, "FA00") == kStop; }, 20s));
     const auto took = std::chrono::steady_clock::now() - killed;
     EXPECT_LT(took, 3s) << "the fallback came " << std::chrono::duration_cast<std::chrono::milliseconds>(took).count()
                         << " ms after the bridge died, with a lease of 1 s";
@@ -240,10 +240,10 @@ TEST_F(MqttBridge, ReconnectsAndRepublishesAfterABrokerRestart) {
     const auto restarted = std::chrono::steady_clock::now();
     Watcher fresh(broker_.port(), "drivebus/" + node_ + "/#");
     EXPECT_TRUE(fresh.wait(
-        topic("status"), [](const Message& m) { return m.payload == "online"; }, 10s))
+        topic("status"), [](const Message& m) { return m.payload == "online"; }, 20s))
         << bridge_output();
     EXPECT_TRUE(fresh.wait(
-        drive_topic("pump", "state"), [](const Message& m) { return parsed(m).is_object(); }, 10s))
+        drive_topic("pump", "state"), [](const Message& m) { return parsed(m).is_object(); }, 20s))
         << bridge_output();
     EXPECT_LT(std::chrono::steady_clock::now() - restarted, 5s);
 }
@@ -259,7 +259,7 @@ TEST_F(MqttBridge, BrokerDownAtStartIsRetriedAndLoggedOnce) {
     broker_.start();
     Watcher fresh(broker_.port(), "drivebus/" + node_ + "/#");
     EXPECT_TRUE(fresh.wait(
-        topic("status"), [](const Message& m) { return m.payload == "online"; }, 10s))
+        topic("status"), [](const Message& m) { return m.payload == "online"; }, 20s))
         << bridge_output();
     EXPECT_TRUE(wait_until([&] { return bridge_output().find("after ") != std::string::npos; }, 5s)) << bridge_output();
 }
