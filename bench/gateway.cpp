@@ -183,7 +183,9 @@ void drivebus_runs(double seconds, int clients, std::vector<Row>& rows, const st
         AfterDaemon& operator=(const AfterDaemon&) = delete;
         AfterDaemon(AfterDaemon&&) = delete;
         AfterDaemon& operator=(AfterDaemon&&) = delete;
-        ~AfterDaemon() { (void)test::wait_until([] { return roudi_gone(); }, 10s); }
+        ~AfterDaemon() {
+            (void)test::wait_until([] { return roudi_gone(); }, 10s);
+        }
     } after_daemon;
     Process daemon({DRIVEBUSD_PATH, "--config", config.string()}, dir / "drivebusd.log");
     if (!test::wait_until([&] { return roudi_answers() && daemon.output().find("running:") != std::string::npos; },
