@@ -31,7 +31,9 @@ def settings(path):
     return values
 
 
-def roudi_needs(s, user="drivebus"):
+def iceoryx_needs(s, user):
+    """What every process of drivebus's iceoryx needs, the RouDi and its clients alike: the host's
+    /tmp and /dev/shm, its users and groups, local sockets; User=`user` (None: any) and Group=drivebus."""
     last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
     words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
     problems = []
@@ -47,40 +49,53 @@ def roudi_needs(s, user="drivebus"):
     families = words("RestrictAddressFamilies")
     if families and ("AF_UNIX" not in families if not families[0].startswith("~") else "~AF_UNIX" in families):
         problems.append("RestrictAddressFamilies= takes AF_UNIX away (the iceoryx sockets)")
-    for key, value in (("User", user), ("Group", "drivebus"), ("UMask", "0007")):
+    for key, value in (("User", user), ("Group", "drivebus")):
         if value is not None and last(key) != value:
             problems.append(f"{key}= is '{last(key)}', not {value}")
     return problems
 
 
-def mqtt_needs(s):
-    """drivebus-mqtt: an iceoryx client (the host's /tmp, /dev/shm and groups, local sockets)
-    that reaches a broker over the network and sends commands (group drivebus-control)."""
+def roudi_needs(s):
+    """drivebus-roudi.service: its segments and sockets are shared with the clients (UMask 0007)."""
+    problems = iceoryx_needs(s, "drivebus")
+    umask = (s.get("UMask") or [""])[-1]
+    if umask != "0007":
+        problems.append(f"UMask= is '{umask}', not 0007")
+    return problems
+
+
+def network_client_needs(s, user):
+    """A libdrivebus client that serves the network (drivebus-gateway, drivebus-mqtt)."""
     last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
     words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
-    problems = []
-    if last("PrivateTmp") in ("yes", "true", "1"):
-        problems.append("PrivateTmp=yes hides /tmp/roudi")
-    if last("PrivateUsers") in ("yes", "true", "1"):
-        problems.append("PrivateUsers=yes unmaps the groups the segments' ACLs name")
+    problems = iceoryx_needs(s, user)
     if last("PrivateNetwork") in ("yes", "true", "1"):
-        problems.append("PrivateNetwork=yes cuts the bridge off its broker")
-    if last("ProtectSystem") == "strict":
-        rw = words("ReadWritePaths")
-        for path in ("/tmp", "/dev/shm"):
-            if path not in rw and "-" + path not in rw:
-                problems.append(f"ProtectSystem=strict without ReadWritePaths={path}")
+        problems.append("PrivateNetwork=yes cuts it off the network it serves")
     families = words("RestrictAddressFamilies")
-    for family in ("AF_UNIX", "AF_INET", "AF_INET6"):
+    for family in ("AF_INET", "AF_INET6"):
         if families and family not in families:
             problems.append(f"RestrictAddressFamilies= takes {family} away")
+    return problems
+
+
+def mqtt_needs(s):
+    """drivebus-mqtt: reaches a broker, sends commands (group drivebus-control), no capability."""
+    words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
+    problems = network_client_needs(s, "drivebus-mqtt")
     if words("CapabilityBoundingSet") or words("AmbientCapabilities"):
         problems.append("the bridge needs no capability")
-    for key, value in (("User", "drivebus-mqtt"), ("Group", "drivebus")):
-        if last(key) != value:
-            problems.append(f"{key}= is '{last(key)}', not {value}")
     if "drivebus-control" not in words("SupplementaryGroups"):
         problems.append("SupplementaryGroups= has no drivebus-control (commands)")
+    return problems
+
+
+def gateway_needs(s):
+    """drivebus-gateway: serves Modbus TCP; port 502 needs CAP_NET_BIND_SERVICE, nothing more."""
+    words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
+    problems = network_client_needs(s, "drivebus-gateway")
+    for key in ("CapabilityBoundingSet", "AmbientCapabilities"):
+        if words(key) != ["CAP_NET_BIND_SERVICE"]:
+            problems.append(f"{key}= is '{' '.join(words(key))}', not CAP_NET_BIND_SERVICE alone")
     return problems
 
 
@@ -90,10 +105,8 @@ def needs(unit):
         return roudi_needs(s)
     if "drivebus-mqtt" in " ".join(s.get("ExecStart", [])):
         return mqtt_needs(s)
-    if "drivebusd" not in " ".join(s.get("ExecStart", [])):
-        # A libdrivebus client (drivebus-gateway): the iceoryx sockets, segments and groups as
-        # the RouDi's, under a user of its own.
-        return roudi_needs(s, user=None)
+    if "drivebus-gateway" in " ".join(s.get("ExecStart", [])):
+        return gateway_needs(s)
     last = lambda key: (s.get(key) or [""])[-1]  # noqa: E731
     words = lambda key: " ".join(s.get(key, [])).split()  # noqa: E731
     problems = []
