@@ -50,6 +50,8 @@ public:
     [[nodiscard]] std::uint16_t port_number() const { return static_cast<std::uint16_t>(port_); }
     [[nodiscard]] int pid() const { return child_->pid(); }
     [[nodiscard]] std::string output() const { return child_->output(); }
+    // Its exit status once it has ended by itself (SIGTERM first if it has not): -1 for a signal.
+    int stop() { return child_->stop(); }
 
 private:
     static inline int count_ = 0;
@@ -254,4 +256,25 @@ TEST(GatewayPeers, KillingTheGatewayMidTrafficLeavesDrivebusdAndItsClientsAlone)
     const auto [s2, o2] = run_program({"/usr/bin/python3", PYMODBUS_TCP, again.port(), "write", "0xFA01", "1234"});
     EXPECT_EQ(s2, 0) << o2;
     EXPECT_NE(o2.find("ok"), std::string::npos) << o2;
+}
+
+// drivebusd goes away: the gateway cannot reach a new RouDi from the same process (iceoryx), so
+// it ends, 69, for systemd to start it again (or iceoryx aborts it first: a signal).
+TEST(GatewayPeers, DrivebusdGoneEndsTheGatewayForSystemdToStartItAgain) {
+    Stack stack(leased());
+    Gateway gateway(stack);
+    EXPECT_EQ(stack.stop_daemon(), 0) << stack.daemon_output();
+    const bool ended = wait_until(
+        [&] {
+            const auto out = gateway.output();
+            siginfo_t info{};
+            const bool exited =
+                ::waitid(P_PID, static_cast<id_t>(gateway.pid()), &info, WEXITED | WNOHANG | WNOWAIT) == 0 &&
+                info.si_pid == gateway.pid();
+            return exited || out.find("drivebusd has gone silent") != std::string::npos;
+        },
+        30s);
+    EXPECT_TRUE(ended) << gateway.output();
+    const int status = gateway.stop();
+    EXPECT_TRUE(status == 69 || status == -1) << "exit status " << status << "\n" << gateway.output();
 }
