@@ -319,7 +319,7 @@ void Server::take(Connection& c, const Adu& adu) {
     context.now_ns = monotonic_ns();
     context.max_age_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(config_.max_age).count();
     context.may_write = c.may_write;
-    context.written = &written_[adu.unit];
+    context.written = &written_[{route->bus, route->drive}];
     auto decision = decide(*call, context);
     if (auto* answer = std::get_if<Answer>(&decision)) {
         if (!answer->refused_write.empty()) {
@@ -385,10 +385,12 @@ void Server::on_done() {
             }
         }
         const auto* write = std::get_if<WriteRegisters>(&d.job.call);
-        if (write != nullptr && d.result && d.result->status == shm::Status::Ok) {
+        const Route* route = backend_.route(d.job.unit);
+        if (write != nullptr && d.result && d.result->status == shm::Status::Ok && route != nullptr) {
             const std::int64_t at = std::max(d.result->reply_ns, monotonic_ns());
+            auto& registers = written_[{route->bus, route->drive}];
             for (std::size_t i = 0; i < write->values.size(); ++i) {
-                written_[d.job.unit][static_cast<std::uint16_t>(write->start + i)] = at;
+                registers[static_cast<std::uint16_t>(write->start + i)] = at;
             }
         } else if (write != nullptr) {
             log_refused_write(c, d.job.unit, *write, describe_failure(d.result));
@@ -484,8 +486,8 @@ void Server::on_tick() {
     // A write older than max_age no longer matters: no value that old is served anyway.
     const std::int64_t horizon =
         monotonic_ns() - std::chrono::duration_cast<std::chrono::nanoseconds>(config_.max_age).count();
-    for (auto& unit : written_) {
-        std::erase_if(unit, [&](const auto& w) { return w.second < horizon; });
+    for (auto& [drive, registers] : written_) {
+        std::erase_if(registers, [&](const auto& w) { return w.second < horizon; });
     }
     if (config_.idle_timeout.count() == 0) {
         return;

@@ -34,15 +34,18 @@ std::int64_t now_ns() {
 // reads of anything else answer start + i; writes hold a lease per drive like drivebusd's.
 class FakeBackend final : public Backend {
 public:
-    const Route* route(std::uint8_t unit) const override { return unit == 1 ? &pump_ : unit == 2 ? &fan_ : nullptr; }
+    // Unit 3 is the pump again, under another unit id.
+    const Route* route(std::uint8_t unit) const override {
+        return unit == 1 || unit == 3 ? &pump_ : unit == 2 ? &fan_ : nullptr;
+    }
     std::optional<shm::DriveSnapshot> snapshot(std::uint8_t unit) const override {
-        if (unit != 1 && unit != 2) {
+        if (unit < 1 || unit > 3) {
             return std::nullopt;
         }
         shm::DriveSnapshot s;
         s.health = shm::DriveHealth::Online;
         s.register_count = 1;
-        s.registers[0] = shm::RegisterSample{0xFD00, 3000, 1, {}, now_ns()};
+        s.registers[0] = shm::RegisterSample{0xFD00, 3000, 1, {}, polled_at.value_or(now_ns())};
         return s;
     }
     std::expected<shm::Response, Error> request(std::uint8_t unit, const shm::Request& request) override {
@@ -71,6 +74,8 @@ public:
         }
         return r;
     }
+    // When the snapshot's FD00 was polled: now at each call unless set.
+    std::optional<std::int64_t> polled_at;
     void block(int unit) {
         std::lock_guard lock(mutex);
         blocked_unit = unit;
@@ -339,4 +344,19 @@ TEST(GatewayServer, AClientThatResetsWhileItsRequestWaitsIsDroppedAtOnce) {
     EXPECT_TRUE(drivebus::test::wait_until([&] { return r.server.stats().open == 0; }, 5s))
         << "the connection is still open while its drive hangs";
     backend.block(-1);
+}
+
+TEST(GatewayServer, AWriteThroughOneUnitIdIsNotReadBackStaleThroughAnother) {
+    FakeBackend backend;
+    backend.polled_at = now_ns();  // polled once, before the write
+    Running r(loopback(), backend);
+    Peer peer(r.server.port());
+    peer.request(1, 3, kReadPolled);
+    EXPECT_EQ(peer.answer()->second, (Bytes{0x03, 0x02, 0x0B, 0xB8}));  // the snapshot's 3000
+    peer.request(2, 1, Bytes{0x06, 0xFD, 0x00, 0x12, 0x34});
+    EXPECT_EQ(peer.answer()->second, (Bytes{0x06, 0xFD, 0x00, 0x12, 0x34}));
+    // The same drive under unit 3: the poll is older than the write, so the read goes to the drive.
+    peer.request(3, 3, kReadPolled);
+    EXPECT_EQ(peer.answer()->second, (Bytes{0x03, 0x02, 0xFD, 0x00}));  // the fake drive's answer
+    EXPECT_EQ(r.server.stats().from_snapshot, 1U);
 }

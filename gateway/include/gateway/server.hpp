@@ -21,7 +21,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "gateway/backend.hpp"
@@ -106,8 +108,9 @@ private:
     sys::EventFd stop_{"eventfd to stop the gateway"};
     sys::Timer tick_;
     std::map<std::uint64_t, std::unique_ptr<Connection>> connections_;
-    // By unit and register: when a write through the gateway was acknowledged (route.hpp).
-    std::array<std::map<std::uint16_t, std::int64_t>, 256> written_;
+    // By drive (bus, name: two unit ids may reach one drive) and register: when a write through
+    // the gateway was acknowledged (route.hpp).
+    std::map<std::pair<std::string, std::string>, std::map<std::uint16_t, std::int64_t>> written_;
     std::uint64_t next_id_ = 1;
 
     mutable std::mutex mutex_;  // jobs_, done_, stopping_, stats_
