@@ -17,6 +17,9 @@ SOURCE = re.compile(
     r"(\.(cpp|hpp|h|c|py|sh|cmake|in|service|rules|conf|toml|map|[1-8])|CMakeLists\.txt|"
     r"^scripts/[a-z-]+|^\.ci/run|^debian/rules|^debian/[a-z0-9.-]+\.(preinst|postinst|prerm|postrm))$")
 LEFT_OUT = re.compile(r"^(tests/fuzz/corpus/|tests/deploy/bad/)")
+# Directories that builds and packaging make inside the tree (build/, build-asan/, ...,
+# debian/<package>/, debian/.debhelper/): not sources. `.git` neither.
+BUILT = re.compile(r"^(build[^/]*|\.git|debian/\.debhelper|debian/tmp|debian/(drivebus[a-z-]*|libdrivebus[a-z0-9-]*|python3-drivebus))$")
 
 
 def files_of(root, every):
@@ -24,7 +27,12 @@ def files_of(root, every):
         listed = subprocess.run(["git", "-C", root, "ls-files"], capture_output=True, text=True, check=True)
         names = listed.stdout.splitlines()
     except (OSError, subprocess.CalledProcessError):
-        names = [os.path.relpath(os.path.join(d, f), root) for d, _, fs in os.walk(root) for f in fs]
+        # No git (a release tarball): the tree on disk, less what builds put there.
+        names = []
+        for d, dirs, fs in os.walk(root):
+            rel = os.path.relpath(d, root)
+            dirs[:] = [x for x in dirs if not BUILT.match(x if rel == "." else os.path.join(rel, x))]
+            names += [os.path.normpath(os.path.join(rel, f)) for f in fs]
     for name in sorted(names):
         if SOURCE.search(name) and (every or not LEFT_OUT.search(name)):
             yield name
