@@ -109,6 +109,7 @@ void fill_response(const master::Finished& f, shm::Response& out) noexcept {
     case master::Refusal::QueueFull: out.status = shm::Status::QueueFull; return;
     case master::Refusal::BusDown: out.status = shm::Status::BusDown; return;
     case master::Refusal::Withdrawn: out.status = shm::Status::Withdrawn; return;
+    case master::Refusal::Expired: out.status = shm::Status::Expired; return;
     case master::Refusal::NotWithdrawn: out.status = shm::Status::Sent; return;
     case master::Refusal::UnknownDrive:
         out.status = shm::Status::Rejected;
@@ -128,6 +129,7 @@ void fill_response(const master::Finished& f, shm::Response& out) noexcept {
     case master::Outcome::BadFrame:
     case master::Outcome::EchoMismatch: out.status = shm::Status::BadFrame; break;
     case master::Outcome::BusDown: out.status = shm::Status::BusDown; break;
+    case master::Outcome::Expired: out.status = shm::Status::Expired; break;
     case master::Outcome::Late:
         out.status = shm::Status::Late;
         out.late_us = static_cast<std::uint32_t>(

@@ -56,7 +56,8 @@ std::vector<Note> LeasePolicy::adopt(const std::vector<CarriedLease>& leases) {
     return notes;
 }
 
-LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now) {
+LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now,
+                                 std::uint64_t grant) {
     LeaseAction a;
     if (drive == kBroadcast) {
         if (const auto other = table_.other_holder(who.token)) {
@@ -65,7 +66,7 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
         }
         return a;
     }
-    const auto d = table_.acquire(drive, who.token, Holder{who.client_name, who.pid}, take_over, now);
+    const auto d = table_.acquire(drive, who.token, Holder{who.client_name, who.pid}, take_over, now, grant);
     if (!d.allowed) {
         a.status = shm::Status::NotPermitted;
         a.holder = d.holder;
@@ -83,6 +84,18 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
     a.token = d.token;
     // A renewal only moves the expiry: subscribers hear of new holders, not of each write.
     a.republish = d.changed;
+    return a;
+}
+
+LeaseAction LeasePolicy::settle(std::size_t drive, std::uint64_t grant, bool sent) {
+    LeaseAction a;
+    if (table_.settle(drive, grant, sent)) {
+        a.republish = true;
+        a.note =
+            Note{log::Level::Info,
+                 fmt::format("{}: a refused write gave back the control lease it had taken or renewed", where(drive)),
+                 name(drive)};
+    }
     return a;
 }
 

@@ -63,6 +63,7 @@ void BusEngine::line_down(rtu::Instant now) {
         Result down;
         down.outcome = Outcome::BusDown;
         down.finished = now;
+        down.unsent = true;
         const Job job = std::move(*after_probe_);
         after_probe_.reset();
         complete(job, down, now);
@@ -74,6 +75,7 @@ void BusEngine::line_down(rtu::Instant now) {
         Result down;
         down.outcome = Outcome::BusDown;
         down.finished = now;
+        down.unsent = true;
         if (callbacks_.client_result) {
             callbacks_.client_result(job.correlation, down);
         }
@@ -146,6 +148,7 @@ void BusEngine::on_time(rtu::Instant now) {
         }
     }
     finish_if_done(now);
+    expire_clients(now);
 }
 
 void BusEngine::take_events(rtu::Instant now) {

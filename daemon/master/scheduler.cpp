@@ -27,6 +27,7 @@ std::optional<std::uint16_t> keep_alive_register(const DrivePlan& drive) {
 }  // namespace
 
 Scheduler::Scheduler(const BusPlan& bus, rtu::Instant start) : bus_(bus) {
+    expired_.reserve(bus.queue_limit);
     for (const auto& d : bus.drives) {
         Drive drive;
         drive.config = &d;

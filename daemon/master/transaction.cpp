@@ -16,6 +16,7 @@ std::string_view to_string(Outcome outcome) noexcept {
     case Outcome::EchoMismatch: return "echo mismatch";
     case Outcome::BusDown: return "bus down";
     case Outcome::Late: return "late reply";
+    case Outcome::Expired: return "expired";
     }
     return "unknown";
 }

@@ -54,7 +54,12 @@ public:
     // A write that touches a command or reference register of `drive` (kBroadcast: a
     // broadcast, refused while any drive's lease is held under another token than the one
     // `who` presents). `who` presents its token; its name and pid are only for display.
-    LeaseAction command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now);
+    // `grant` (other than 0): the write has yet to reach the wire; settle() says whether it did.
+    LeaseAction command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now,
+                        std::uint64_t grant = 0);
+    // The write of `grant` reached the wire (`sent`), or was refused before it did: then what it
+    // took or renewed is undone, the former holder included (see LeaseTable::settle).
+    LeaseAction settle(std::size_t drive, std::uint64_t grant, bool sent);
     LeaseAction renew(std::size_t drive, const Origin& who, rtu::Instant now);
     LeaseAction release(std::size_t drive, const Origin& who);
     // Leases run out by `now`, each with what to write to its drive.

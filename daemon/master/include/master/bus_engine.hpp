@@ -89,6 +89,8 @@ private:
     void take_events(rtu::Instant now);
     void finish_if_done(rtu::Instant now);
     void finish_probe(const Result& probe, rtu::Instant now);
+    void expire_clients(rtu::Instant now);
+    void report_expired(const Job& job, rtu::Instant now);
     void complete(const Job& job, const Result& result, rtu::Instant now);
     // The job to start now: the one a sync probe went ahead of, or the scheduler's next.
     [[nodiscard]] std::optional<Job> next_job(rtu::Instant now);

@@ -41,6 +41,8 @@ struct ClientRequest {
     bool fallback = false;
     // Not a request: withdraws the one with this correlation if it is still waiting.
     bool withdraw = false;
+    // Not on the wire by then: dropped and answered expired, never sent late.
+    std::optional<rtu::Instant> deadline{};
 };
 
 struct Job {
@@ -51,9 +53,10 @@ struct Job {
     std::uint64_t client = 0;
     std::uint64_t correlation = 0;
     rtu::RequestAdu request;
-    std::optional<unsigned> retries;        // overrides the bus setting (probes: none)
-    std::optional<rtu::Instant> scheduled;  // a poll cycle's first request: when its period made it due
-    bool fallback = false;                  // drivebusd's lease fallback (a client job of its own)
+    std::optional<unsigned> retries;         // overrides the bus setting (probes: none)
+    std::optional<rtu::Instant> scheduled;   // a poll cycle's first request: when its period made it due
+    bool fallback = false;                   // drivebusd's lease fallback (a client job of its own)
+    std::optional<rtu::Instant> deadline{};  // a client's: not sent after it
 };
 inline constexpr std::size_t kNoDrive = static_cast<std::size_t>(-1);
 
@@ -85,6 +88,11 @@ public:
     // Takes the waiting client request `correlation` out of its queue: false when it is not
     // waiting (taken for the wire, finished, or never queued).
     bool withdraw(std::uint64_t correlation);
+    // Takes out of the queues the client requests whose deadline has passed by `now`: they are
+    // never sent. The list is valid until the next call (its room is kept: no allocation).
+    [[nodiscard]] const std::vector<Job>& expire(rtu::Instant now);
+    // The earliest deadline of a waiting client request.
+    [[nodiscard]] std::optional<rtu::Instant> next_deadline() const;
 
     [[nodiscard]] std::size_t drive_count() const noexcept { return drives_.size(); }
     // Fills `out` without allocating (the bus thread calls it every poll cycle).
@@ -167,6 +175,7 @@ private:
     std::uint64_t last_client_ = 0;
     bool last_was_read_ = false;  // the last job was a client read: a due poll goes next
     std::size_t queued_ = 0;
+    std::vector<Job> expired_;  // expire()'s answer
 };
 
 // The read transactions a poll group needs, within the drive's limits.
