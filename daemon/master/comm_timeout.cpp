@@ -128,6 +128,7 @@ void CommTimeoutCheck::restart() noexcept {
     step_ = has_timeout_ ? Step::Read : Step::End;
     note_ = {};
     note_.wanted = wanted_;
+    note_.wanted_ms = wanted_ && safety_ != nullptr ? safety_->milliseconds(*wanted_) : 0;
     note_.gap = gap_;
 }
 
@@ -218,7 +219,8 @@ std::vector<std::string> comm_timeout_warnings(const BusPlan& bus) {
         } else if (r->default_value) {
             // Not the drive's own value, which is read when it comes online: the factory one.
             ms = safety.milliseconds(static_cast<std::uint16_t>(*r->default_value));
-            which = fmt::format("{} at its factory setting ({})", r->name, ms == 0 ? "off" : seconds(ms));
+            which = fmt::format("{} at its factory setting ({}; what the drive holds is read when it comes online)",
+                                r->name, ms == 0 ? "off" : seconds(ms));
         } else {
             continue;
         }

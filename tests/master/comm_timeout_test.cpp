@@ -198,8 +198,10 @@ TEST(CommTimeoutWarnings, CheckConfigJudgesTheConfiguredValueOrElseTheFactoryOne
     b.drives[0].polls[0].period = 5s;
     auto lines = master::comm_timeout_warnings(b);
     ASSERT_EQ(lines.size(), 1U);
-    EXPECT_NE(lines[0].find("bus 'test' drive 'pump': F803 at its factory setting (3 s) is not longer than"),
-              std::string::npos)
+    EXPECT_NE(
+        lines[0].find("bus 'test' drive 'pump': F803 at its factory setting (3 s; what the drive holds is read when it "
+                      "comes online) is not longer than"),
+        std::string::npos)
         << lines[0];
     EXPECT_NE(lines[0].find("up to 5.15 s"), std::string::npos) << lines[0];
     b.drives[0].comm_timeout = 10s;

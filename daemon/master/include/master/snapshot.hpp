@@ -65,6 +65,7 @@ struct CommTimeoutNote {
     std::uint16_t action = 0;
     std::optional<std::uint16_t> wanted;  // the configured comm_timeout, in raw counts
     std::uint32_t timeout_ms = 0;         // `raw` in milliseconds; 0: off
+    std::uint32_t wanted_ms = 0;          // `wanted` in milliseconds; 0: none
     // The longest drivebusd may leave between two requests to the drive; absent: nothing bounds it.
     std::optional<rtu::Duration> gap;
 };
