@@ -26,6 +26,7 @@
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
 #include "log/log.hpp"
+#include "master/comm_timeout.hpp"
 #include "master/line_budget.hpp"
 #include "rt/kernel_facts.hpp"
 #include "rt/memory.hpp"
@@ -106,6 +107,9 @@ std::expected<void, std::string> check_and_warn(const config::Config& c) {
     }
     for (const auto& bus : c.buses) {
         for (const auto& line : master::line_budget_warnings(bus)) {
+            log::warning(line);
+        }
+        for (const auto& line : master::comm_timeout_warnings(bus)) {
             log::warning(line);
         }
     }

@@ -214,4 +214,22 @@ std::expected<void, std::string> apply_option_argument(Bus& bus, std::string_vie
     return {};
 }
 
+std::expected<void, std::string> apply_set_argument(Bus& bus, std::string_view argument) {
+    const auto colon = argument.find(':');
+    const auto eq = argument.find('=');
+    if (colon == std::string_view::npos || eq == std::string_view::npos || eq < colon) {
+        return std::unexpected("'" + std::string(argument) + "' is not ADDR:REG=VALUE");
+    }
+    const auto address = target(bus, argument.substr(0, colon), false);
+    if (!address) {
+        return std::unexpected(address.error());
+    }
+    const std::string_view text = argument.substr(eq + 1);
+    const auto value = word_value(text);
+    if (!value) {
+        return std::unexpected("'" + std::string(text) + "' is not a 16-bit value (0-65535 or 0x0000-0xFFFF)");
+    }
+    return bus.drive(*address)->poke(argument.substr(colon + 1, eq - colon - 1), *value);
+}
+
 }  // namespace drivebus::sim

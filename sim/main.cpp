@@ -61,6 +61,11 @@ int run(const sim::Options& o) {
             fail(kExitUsage, "--option " + opt + ": " + ok.error());
         }
     }
+    for (const std::string& reg : o.registers) {
+        if (auto ok = sim::apply_set_argument(bus, reg); !ok) {
+            fail(kExitUsage, "--set " + reg + ": " + ok.error());
+        }
+    }
 
     // Precise wake-ups for pacing: the default 50 us timer slack would blur every character.
     ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
@@ -245,6 +250,7 @@ int run_main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--fault", o.faults, "[ADDR:]key=value fault injection (see docs/simulator.md)");
     app.add_option("--option", o.drive_options, "ADDR:key=value drive setting, e.g. 1:load=80");
+    app.add_option("--set", o.registers, "ADDR:REG=VALUE a register's value from the start, e.g. 1:F803=0");
     app.add_option("--control", o.control, "control socket PATH for commands while running");
     app.add_option("--seed", o.seed, "seed for the shares of faulty replies")->capture_default_str();
     app.add_option("--profile-dir", o.profile_dir, "directory with the drive profiles (TYPE.toml)");

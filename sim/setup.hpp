@@ -30,6 +30,7 @@ struct Options {
     std::string turnaround = "1ms";
     std::vector<std::string> faults;
     std::vector<std::string> drive_options;
+    std::vector<std::string> registers;  // --set ADDR:REG=VALUE
     std::string control;
     std::uint32_t seed = 1;
     std::string profile_dir;

@@ -40,6 +40,27 @@ shm::DriveHealth to_shm(master::Health health) noexcept {
     return shm::DriveHealth::Unknown;
 }
 
+shm::CommTimeout to_shm(const master::CommTimeoutNote& note) noexcept {
+    // The two enums list the same cases in the same order.
+    static_assert(static_cast<int>(master::CommTimeoutNote::State::ReadBack) ==
+                  static_cast<int>(shm::CommTimeoutState::ReadBack));
+    static_assert(static_cast<int>(master::CommTimeoutNote::Verdict::MayFire) ==
+                  static_cast<int>(shm::CommTimeoutVerdict::MayFire));
+    shm::CommTimeout out;
+    out.state = static_cast<shm::CommTimeoutState>(note.state);
+    out.verdict = static_cast<shm::CommTimeoutVerdict>(note.verdict);
+    out.exception = note.exception;
+    out.action_valid = note.action_read ? 1 : 0;
+    out.raw = note.raw;
+    out.action = note.action;
+    out.timeout_ms = note.timeout_ms;
+    out.wanted_ms = note.wanted_ms;
+    out.gap_ms =
+        note.gap ? static_cast<std::uint32_t>(std::chrono::duration_cast<std::chrono::milliseconds>(*note.gap).count())
+                 : 0;
+    return out;
+}
+
 void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noexcept {
     out.version = shm::kPayloadVersion;
     out.size = sizeof(shm::DriveSnapshot);
@@ -62,6 +83,7 @@ void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noe
     }
     out.register_count = static_cast<std::uint16_t>(n);
     std::fill(out.registers.begin() + static_cast<std::ptrdiff_t>(n), out.registers.end(), shm::RegisterSample{});
+    out.comm_timeout = to_shm(in.comm_timeout);
 }
 
 void fill_status(const config::BusConfig& bus, const master::BusStatus& in, const std::vector<shm::DriveHealth>& health,

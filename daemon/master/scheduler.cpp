@@ -41,6 +41,7 @@ Scheduler::Scheduler(const BusPlan& bus, rtu::Instant start) : bus_(bus) {
         drive.setup = SetupPlan(d.address, *d.profile, block_setups(d));
         drive.setup_done = drive.setup.empty();
         drive.blocks_confirmed = drive.setup.empty();
+        drive.comm = CommTimeoutCheck(d.address, *d.profile, comm_timeout_raw(d), longest_request_gap(bus, d));
         if (const auto& control = d.profile->control; !drive.setup.empty() && control) {
             const RegisterInfo* status = d.profile->find(std::string_view(control->status));
             const auto bit = control->status_bits.find("fault");
@@ -74,6 +75,9 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
             return job;
         }
         if (auto job = next_setup(now)) {
+            return job;
+        }
+        if (auto job = next_check()) {
             return job;
         }
         if (auto job = take_client({&writes_})) {
@@ -220,6 +224,9 @@ std::optional<rtu::Instant> Scheduler::next_due() const {
         return rtu::Instant::min();
     }
     for (const Drive& drive : drives_) {
+        if (drive.comm.running() && drive.health != Health::Absent) {
+            return rtu::Instant::min();
+        }
         if (!drive.setup_done && drive.health != Health::Absent) {
             consider(drive.setup_retry);  // at once, or when a failed set-up is tried again
             continue;
@@ -285,6 +292,10 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
         const auto changed = setup_step(job, result, now);
         return changed ? changed : back;
     }
+    if (job.kind == JobKind::Check) {
+        const auto finished = check_step(job, result);
+        return finished ? finished : back;
+    }
     if (job.kind != JobKind::Poll || job.group >= drive.groups.size()) {
         return back;
     }
@@ -324,6 +335,7 @@ void Scheduler::mark_present(std::size_t drive, rtu::Instant now) {
             d.blocks_confirmed = d.setup.empty();
             d.setup_retry = now;
             d.setup_backoff = {};
+            d.comm.restart();  // maybe another drive, or one reset to its factory settings
             for (Group& g : d.groups) {
                 g.next_due = now;
                 g.cursor.reset();
@@ -384,6 +396,7 @@ void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     s.counters = d.counters;
     s.sequence = d.sequence;
     s.setup = d.health == Health::Unconfigured || d.health == Health::AwaitingReset ? d.setup.note() : SetupNote{};
+    s.comm_timeout = d.comm.note();
 }
 
 }  // namespace drivebus::master

@@ -104,6 +104,20 @@ struct ControlInfo {
     std::map<std::string, unsigned> status_bits;
 };
 
+// The drive's own guard against a master that goes quiet (the ATV21's Modbus time-out, F803):
+// the register that sets it, what one count of it is, the value that turns it off, and the
+// register that says what the drive does when it fires (F603). drivebusd reads them when the
+// drive comes online and warns when the guard is off or would fire between its requests.
+struct SafetyInfo {
+    std::string comm_timeout;                       // the time-out register ("F803"); empty: none named
+    double comm_timeout_seconds = 1.0;              // seconds per raw count (comm_timeout_unit)
+    std::optional<std::uint16_t> comm_timeout_off;  // the raw value that turns it off ("0: disabled")
+    std::string comm_fault_action;                  // what the drive does when it fires ("F603"); empty: none
+
+    // A raw time-out in milliseconds (0 for the value that turns it off).
+    [[nodiscard]] std::uint32_t milliseconds(std::uint16_t raw) const noexcept;
+};
+
 struct Profile {
     int schema = 1;
     std::string type;   // "atv21"
@@ -123,6 +137,7 @@ struct Profile {
     std::vector<RegisterInfo> registers;
     std::vector<FaultCode> fault_codes;
     std::optional<ControlInfo> control;
+    std::optional<SafetyInfo> safety;
 
     // Look-ups. Names match case-insensitively ("fa01" finds FA01).
     [[nodiscard]] const RegisterInfo* find(std::string_view name) const noexcept;

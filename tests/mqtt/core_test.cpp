@@ -138,11 +138,26 @@ TEST(MqttPayload, DriveStateHasNamesUnitsAndTheAltivarDecoding) {
     EXPECT_EQ(j["altivar"]["running"], true);
     EXPECT_DOUBLE_EQ(j["altivar"]["output_hz"].get<double>(), 60.0);
     EXPECT_EQ(j["lease"]["state"], "free");
+    EXPECT_EQ(j["comm_timeout"]["state"], "unknown");
     EXPECT_EQ(j["polled_ns"], 1);  // the newest valid sample's time
     // Without a profile: registers by number, raw values.
     const auto bare = drive_state(pump_snapshot(6000), nullptr);
     EXPECT_EQ(bare["registers"]["0xFD00"]["value"], 6000.0);
     EXPECT_FALSE(bare.contains("altivar"));
+}
+
+TEST(MqttPayload, DriveStateCarriesTheDrivesModbusTimeOut) {
+    const auto profile = atv21();
+    auto s = pump_snapshot(6000);
+    s.comm_timeout.state = shm::CommTimeoutState::Read;
+    s.comm_timeout.verdict = shm::CommTimeoutVerdict::Off;
+    const auto off = drive_state(s, &profile);
+    EXPECT_EQ(off["comm_timeout"]["state"], "read");
+    EXPECT_EQ(off["comm_timeout"]["verdict"], "off");
+    EXPECT_EQ(off["comm_timeout"]["timeout_ms"], 0);
+    s.comm_timeout.verdict = shm::CommTimeoutVerdict::Fine;
+    s.comm_timeout.timeout_ms = 3000;
+    EXPECT_EQ(drive_state(s, &profile)["comm_timeout"]["timeout_ms"], 3000);
 }
 
 TEST(MqttPayload, DeadbandOnValuesOnly) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "master/bus_plan.hpp"
+#include "master/comm_timeout.hpp"
 #include "master/result.hpp"
 #include "master/setup_plan.hpp"
 #include "master/snapshot.hpp"
@@ -20,7 +21,8 @@
 
 namespace drivebus::master {
 
-enum class JobKind : std::uint8_t { Setup, Client, Poll, KeepAlive, Probe };
+// Check: the drive's own Modbus time-out read (and written) when it comes online.
+enum class JobKind : std::uint8_t { Setup, Client, Poll, KeepAlive, Probe, Check };
 
 // A register window read in one transaction; for an indirect block, `addresses` are the
 // registers its slots hold.
@@ -145,6 +147,7 @@ private:
         DriveCounters counters;
         std::uint64_t sequence = 0;
         std::optional<Job> fallback;  // sent before anything else on the bus
+        CommTimeoutCheck comm;        // its own Modbus time-out, read when it comes online
     };
 
     [[nodiscard]] std::optional<Job> next_client_read();
@@ -156,6 +159,9 @@ private:
     void setup_failed(std::size_t drive, rtu::Instant now, SetupState state);
     // A set-up step finished; returns the drive if its health changed.
     std::optional<std::size_t> setup_step(const Job& job, const Result& result, rtu::Instant now);
+    [[nodiscard]] std::optional<Job> next_check();
+    // A step of a drive's time-out check finished; returns the drive when the check did.
+    std::optional<std::size_t> check_step(const Job& job, const Result& result);
     [[nodiscard]] bool through_block(std::size_t drive, const rtu::RequestAdu& request) const noexcept;
     void watch_fault(std::size_t drive, const ReadChunk& chunk, const Result& result);
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
