@@ -32,7 +32,8 @@ public:
           engine_(bus, timing_, desk_.callbacks(callbacks), sys::now()),
           uart_(serial::kernel_uart_control()),
           heartbeat_(shared.heartbeat),
-          wake_(shared.wake) {
+          wake_(shared.wake),
+          winding_(shared.winding) {
         desk_.attach(engine_);
         auto woken = loop_.add(wake_.fd(), [this] { on_wake(); });
         auto timed = loop_.add(timer_.fd(), [this] {
@@ -49,6 +50,9 @@ public:
     [[nodiscard]] const std::optional<std::string>& broken() const noexcept { return broken_; }
 
     void run() override {
+        // What waits in the ring before the line opens: the fallbacks of the leases the last
+        // drivebusd held when it ended, which go out before anything else.
+        desk_.take_requests();
         try_open();
         drive();
         if (auto ran = loop_.run(); !ran) {
@@ -74,7 +78,12 @@ private:
             loop_.stop();
             return;
         }
+        // Read before the ring: the fallbacks submitted before the wind-down are then taken.
+        const bool winding = winding_.load();
         desk_.take_requests();
+        if (winding && !engine_.winding_down()) {
+            engine_.wind_down(sys::now());
+        }
         drive();
     }
 
@@ -374,6 +383,7 @@ private:
     sys::EventLoop loop_;
     sys::Timer timer_;
     const sys::EventFd& wake_;
+    const std::atomic<bool>& winding_;
     std::optional<serial::Port> port_;
     std::unique_ptr<serial::Direction> direction_;
     std::optional<serial::TransmitTracker> tracker_;
@@ -387,7 +397,7 @@ private:
 std::expected<std::unique_ptr<BusLoop::Impl>, std::string> BusLoop::Impl::create(
     const config::BusConfig& bus, const master::EngineCallbacks& callbacks, const LoopOptions& options,
     BusLoop& outer) {
-    const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_};
+    const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_, outer.winding_};
     auto thread = std::make_unique<BusThread>(bus, callbacks, options, shared);
     if (const auto& broken = thread->broken()) {
         return std::unexpected(*broken);

@@ -70,6 +70,16 @@ void BusEngine::line_down(rtu::Instant now) {
     transmitting_ = false;
     scheduler_.line_down(now);
     // Waiting client requests are answered now, not sent whenever the line comes back.
+    fail_client_jobs(now);
+    ++status_.sequence;
+}
+
+void BusEngine::wind_down(rtu::Instant now) {
+    scheduler_.wind_down();
+    fail_client_jobs(now);
+}
+
+void BusEngine::fail_client_jobs(rtu::Instant now) {
     for (const Job& job : scheduler_.take_client_jobs()) {
         Result down;
         down.outcome = Outcome::BusDown;
@@ -78,7 +88,6 @@ void BusEngine::line_down(rtu::Instant now) {
             callbacks_.client_result(job.correlation, down);
         }
     }
-    ++status_.sequence;
 }
 
 rtu::Instant BusEngine::line_free_at() const noexcept {

@@ -64,6 +64,9 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
     if (!line_up_) {
         return std::nullopt;
     }
+    if (fallbacks_only_) {
+        return next_fallback();
+    }
     if (reads_only) {
         if (auto job = next_client_read()) {
             return job;

@@ -51,6 +51,13 @@ public:
     [[nodiscard]] int daemon_pid() const noexcept { return daemon_->pid(); }
     // Stops drivebusd (SIGTERM) and returns its exit status.
     int stop_daemon();
+    // Kills drivebusd (SIGKILL), as a crash would, and waits until it is gone.
+    void kill_daemon();
+    // Starts drivebusd again on the same configuration, once the last one's RouDi is gone, and
+    // waits until it runs.
+    void start_daemon();
+    // Where drivebusd keeps its lease record (state_dir).
+    [[nodiscard]] std::filesystem::path state_dir() const { return dir_ / "state"; }
     // Switches the simulated pump off and on, silent meanwhile until drivebusd has found it
     // absent; then waits until drivebusd has confirmed its set-up again.
     void power_cycle_pump();

@@ -39,6 +39,8 @@ struct BusConfig : master::BusPlan {
     // Used when the kernel says it has no RS485 support: rts, none, or nullopt (fail).
     std::optional<DirectionMode> kernel_fallback;
     std::filesystem::path lock_dir;  // UUCP lock files; empty: none
+    // Where the bus's lease record is kept (ipc/lease_record.hpp): a tmpfs, gone at boot.
+    std::filesystem::path state_dir = "/run/drivebus";
     // The bus's [[bus]] table as written (TOML, normalised): a reload restarts the buses whose
     // settings differ and leaves the others running.
     std::string settings;
