@@ -10,7 +10,8 @@ namespace {
 
 constexpr std::string_view kHelp =
     "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
-    "writes ADDR | requests ADDR | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power ADDR";
+    "writes ADDR | requests ADDR | mute | unmute | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power "
+    "ADDR";
 
 std::vector<std::string_view> words(std::string_view line) {
     std::vector<std::string_view> out;
@@ -132,6 +133,14 @@ std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
             out += item;
         }
         return out;
+    }
+    if (verb == "mute" && w.size() == 1) {
+        bus.set_muted(true);
+        return "ok";
+    }
+    if (verb == "unmute" && w.size() == 1) {
+        bus.set_muted(false);
+        return "ok";
     }
     if (verb == "requests" && w.size() == 2) {
         const auto address = target(bus, w[1], false);

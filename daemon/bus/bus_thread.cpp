@@ -9,6 +9,7 @@
 #include "bus/desk.hpp"
 #include "bus/line_opener.hpp"
 #include "log/log.hpp"
+#include "master/mute_watch.hpp"
 #include "serial/direction.hpp"
 #include "serial/port.hpp"
 #include "serial/tx_tracker.hpp"
@@ -103,6 +104,25 @@ private:
             return;
         }
         engine_.line_up(sys::now());
+        mute_.opened(engine_.status().counters, sys::now());
+    }
+
+    // Open and hearing nothing while its requests time out: the adapter may have stopped
+    // delivering (a known ftdi_sio failure), and only a close and open brings it back.
+    void reopen_if_mute(rtu::Instant now) {
+        if (!port_ || !mute_.mute(engine_.status().counters, now)) {
+            return;
+        }
+        limiter_.write(
+            log::Level::Warning, "mute",
+            "bus " + bus_.name + ": " + port_->device().string() + ": nothing received for " +
+                std::to_string(std::chrono::duration_cast<std::chrono::seconds>(mute_.silent_for()).count()) +
+                " s while every request timed out; reopening the port",
+            {.bus = bus_.name});
+        close_port();
+        engine_.line_down(now);
+        engine_.count_mute_reopen();
+        try_open();
     }
 
     void close_port() {
@@ -168,6 +188,7 @@ private:
         }
         desk_.retry_fallbacks(now);
         engine_.on_time(now);
+        reopen_if_mute(now);
         if (port_ && tracker_ && tracker_->busy() && now >= tracker_->next_check()) {
             if (const auto done = tracker_->check(now)) {
                 if (auto released = direction_->transmit_done(sys::now()); !released) {
@@ -296,9 +317,7 @@ private:
         if (tracker_ && tracker_->busy()) {
             consider(tracker_->next_check());
         }
-        if (!port_) {
-            consider(opener_.next_try());
-        }
+        consider(port_ ? mute_.next_check() : opener_.next_try());
         if (sending_) {
             consider(sending_->give_up);
         }
@@ -379,6 +398,7 @@ private:
     master::BusEngine engine_;
     std::unique_ptr<serial::UartControl> uart_;
     LineOpener opener_{bus_, *uart_};
+    master::MuteWatch mute_{bus_.mute_reopen, std::chrono::minutes(5)};
     std::atomic<std::uint64_t>& heartbeat_;
     sys::EventLoop loop_;
     sys::Timer timer_;

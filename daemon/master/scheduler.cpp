@@ -381,7 +381,8 @@ void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     s.name = d.config->name;
     s.address = d.config->address;
     s.profile = d.config->profile->type;
-    s.health = d.health;
+    // On a line that is down nothing answers: what the drive was is not what it is.
+    s.health = line_up_ ? d.health : Health::Unknown;
     s.registers = d.values;
     s.counters = d.counters;
     s.sequence = d.sequence;

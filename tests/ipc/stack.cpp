@@ -60,9 +60,9 @@ Stack::Stack(StackOptions options) {
                               "[[bus]]\nname = \""
                            << bus_ << "\"\ndevice = \"" << sim_->link().string()
                            << "\"\nparity = \"none\"\nresponse_timeout = \"100ms\"\nretries = 3\nstate_dir = \""
-                           << (dir_ / "state").string()
-                           << "\"\n"
-                              "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
+                           << (dir_ / "state").string() << "\"\n"
+                           << options.bus_extra
+                           << "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
                            << options.drive_extra << (options.polls ? pump_polls : std::string("\n"));
     if (options.fan) {
         std::ofstream(config_, std::ios::app)

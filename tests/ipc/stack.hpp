@@ -17,6 +17,7 @@ namespace drivebus::test {
 struct StackOptions {
     std::vector<std::string> sim_args;  // more drivebus-sim arguments (faults, options)
     std::string drive_extra;            // extra keys for the pump's [[bus.drive]] table
+    std::string bus_extra;              // extra keys for the [[bus]] table
     std::string poll_period = "50ms";
     bool polls = true;  // false: no [[bus.drive.poll]], so only clients' requests reach the line
     bool paced = true;
