@@ -10,7 +10,8 @@ namespace {
 
 constexpr std::string_view kHelp =
     "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
-    "writes ADDR | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power ADDR";
+    "writes ADDR | requests ADDR | mute | unmute | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power "
+    "ADDR";
 
 std::vector<std::string_view> words(std::string_view line) {
     std::vector<std::string_view> out;
@@ -129,6 +130,32 @@ std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
         char item[24];
         for (const auto& [reg, value] : bus.drive(*address)->write_log()) {
             std::snprintf(item, sizeof item, " 0x%04X=%u", reg, value);
+            out += item;
+        }
+        return out;
+    }
+    if (verb == "mute" && w.size() == 1) {
+        bus.set_muted(true);
+        return "ok";
+    }
+    if (verb == "unmute" && w.size() == 1) {
+        bus.set_muted(false);
+        return "ok";
+    }
+    if (verb == "requests" && w.size() == 2) {
+        const auto address = target(bus, w[1], false);
+        if (!address) {
+            return error(address.error());
+        }
+        const auto* drive = bus.drive(*address);
+        std::string out = "ok total=" + std::to_string(drive->requests_received());
+        char item[32];
+        for (const auto& r : drive->request_log()) {
+            if (r.value) {
+                std::snprintf(item, sizeof item, " %02u:0x%04X=%u", r.function, r.start, *r.value);
+            } else {
+                std::snprintf(item, sizeof item, " %02u:0x%04X", r.function, r.start);
+            }
             out += item;
         }
         return out;

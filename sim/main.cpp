@@ -155,6 +155,9 @@ int run(const sim::Options& o) {
                 loop.stop();
                 return;
             }
+            if (bus.muted()) {
+                continue;  // the master's bytes go nowhere, and nothing comes back
+            }
             const auto bytes = std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(*n));
             const rtu::Instant read_time = sys::now();
             // A new frame begins: how long after our last character did the master start it?
@@ -194,6 +197,16 @@ int run(const sim::Options& o) {
             }
         }
     }));
+    // A mute line ends when the master opens the port again, as a stuck adapter recovers.
+    const sys::UniqueFd opens = sim::watch_opens(line);
+    if (opens.get() >= 0) {
+        added.push_back(loop.add(opens.get(), [&] {
+            if (sim::drain_opens(opens.get()) && bus.muted()) {
+                bus.set_muted(false);
+                std::cerr << "drivebus-sim: the line was opened again: no longer mute\n";
+            }
+        }));
+    }
     for (const auto& a : added) {
         if (!a) {
             std::cerr << "drivebus-sim: event loop: " << a.error().message() << '\n';

@@ -159,22 +159,42 @@ std::optional<Holder> LeaseTable::other_holder(const LeaseToken& token) const {
     return std::nullopt;
 }
 
+void LeaseTable::end(std::size_t drive, rtu::Instant now) {
+    auto& l = leases_[drive];
+    l.state = shm::LeaseState::Expired;
+    l.token = {};  // nothing renews or releases it any more
+    changed(l);    // a grant still unsettled cannot undo the end
+    l.expired = now;
+    l.fallback_ok = false;
+    ++l.expiries;
+    ++expiries_;
+}
+
 std::vector<Expiry> LeaseTable::expire(rtu::Instant now) {
     std::vector<Expiry> out;
     for (std::size_t i = 0; i < leases_.size(); ++i) {
-        auto& l = leases_[i];
-        if (l.state == shm::LeaseState::Held && l.expires <= now && l.unsettled.empty()) {
-            l.state = shm::LeaseState::Expired;
-            l.token = {};  // nothing renews or releases it any more
-            changed(l);
-            l.expired = now;
-            l.fallback_ok = false;
-            ++l.expiries;
-            ++expiries_;
+        if (const auto& l = leases_[i]; l.state == shm::LeaseState::Held && l.expires <= now && l.unsettled.empty()) {
+            end(i, now);
             out.push_back({i, l.holder, l.fallback});
         }
     }
     return out;
+}
+
+std::vector<Expiry> LeaseTable::end_all(rtu::Instant now) {
+    std::vector<Expiry> out;
+    for (std::size_t i = 0; i < leases_.size(); ++i) {
+        if (const auto& l = leases_[i]; l.state == shm::LeaseState::Held) {
+            end(i, now);
+            out.push_back({i, l.holder, l.fallback});
+        }
+    }
+    return out;
+}
+
+void LeaseTable::recovered(std::size_t drive, const Holder& who, rtu::Instant now) {
+    leases_.at(drive).holder = who;
+    end(drive, now);
 }
 
 std::optional<rtu::Instant> LeaseTable::next_deadline() const {

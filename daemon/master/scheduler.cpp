@@ -66,6 +66,9 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
     if (!line_up_) {
         return std::nullopt;
     }
+    if (fallbacks_only_) {
+        return next_fallback();
+    }
     if (reads_only) {
         if (auto job = next_client_read()) {
             return job;
@@ -391,7 +394,8 @@ void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     s.name = d.config->name;
     s.address = d.config->address;
     s.profile = d.config->profile->type;
-    s.health = d.health;
+    // On a line that is down nothing answers: what the drive was is not what it is.
+    s.health = line_up_ ? d.health : Health::Unknown;
     s.registers = d.values;
     s.counters = d.counters;
     s.sequence = d.sequence;

@@ -53,7 +53,7 @@ void assign(std::array<char, N>& text, std::string_view from) noexcept {
 using LeaseToken = std::array<std::uint64_t, 2>;
 
 enum class DriveHealth : std::uint8_t {
-    Unknown = 0,  // not polled yet
+    Unknown = 0,  // not polled yet, or the line is down (nothing can answer)
     Online = 1,
     Absent = 2,         // stopped answering; probed with back-off
     Unconfigured = 3,   // answers, but its set-up failed, did not read back, or its read block
@@ -191,6 +191,7 @@ struct BusCounters {
     std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
     std::uint64_t held_replies = 0;  // replies the kernel handed over late, still complete in time
     std::uint64_t sync_probes = 0;   // requests sent to prove a slave in step after a reply went missing
+    std::uint64_t mute_reopens = 0;  // the port reopened: open, and every drive silent for mute_reopen
 };
 
 // Every counter of BusCounters, in its order, for code that maps them by name (X(name) each):
@@ -217,7 +218,8 @@ struct BusCounters {
     X(lease_expiries) \
     X(late_replies) \
     X(held_replies) \
-    X(sync_probes)
+    X(sync_probes) \
+    X(mute_reopens)
 // clang-format on
 #define DRIVEBUS_SHM_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) == sizeof(std::uint64_t) * (0 DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_SHM_COUNT_ONE)),

@@ -36,6 +36,9 @@ public:
         Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
         who.token = request.lease_token;
         who.pid = request.pid;
+        if (closed_) {
+            return answer(who, shm::Status::BusDown);
+        }
         if (request.kind == shm::RequestKind::Withdraw && shm::compatible(request)) {
             return withdraw(who, route);
         }
@@ -91,6 +94,10 @@ public:
         }
         return std::nullopt;
     }
+
+    // drivebusd is stopping and has ended the leases: from now on every request is answered
+    // bus down, so that none takes a lease again or reaches the drive after its fallback.
+    void close() noexcept { closed_ = true; }
 
     // drivebusd's own write (a lease fallback): outside the clients' limit.
     bool submit_own(std::size_t drive, const rtu::RequestAdu& write) {
@@ -240,6 +247,7 @@ private:
     std::vector<std::size_t> republish_;
     std::uint64_t served_ = 0;
     std::uint64_t queue_full_ = 0;
+    bool closed_ = false;
 };
 
 }  // namespace drivebus::ipc

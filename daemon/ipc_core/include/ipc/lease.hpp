@@ -83,6 +83,11 @@ public:
     // Leases that have run out by `now`; each becomes Expired and is returned once. A lease
     // with a grant not yet settled waits: whether it was renewed is not known yet.
     std::vector<Expiry> expire(rtu::Instant now);
+    // drivebusd stops: every lease held ends now, run out or not, as if it had.
+    std::vector<Expiry> end_all(rtu::Instant now);
+    // A lease the last drivebusd held when it ended (lease_record.hpp): Expired now, naming
+    // `who`; its fallback is applied as an expiry's is.
+    void recovered(std::size_t drive, const Holder& who, rtu::Instant now);
     // The next expiry, if any lease is held (and has no grant unsettled).
     [[nodiscard]] std::optional<rtu::Instant> next_deadline() const;
     // The fallback's write was answered (or not).
@@ -123,6 +128,7 @@ private:
     void changed(Lease& l) noexcept { l.epoch = ++epochs_; }
     [[nodiscard]] static bool held_under(const Lease& l, const LeaseToken& token);
     [[nodiscard]] LeaseToken token_for(const LeaseToken& presented);
+    void end(std::size_t drive, rtu::Instant now);
 
     std::vector<Lease> leases_;
     TokenSource tokens_;

@@ -87,6 +87,10 @@ public:
     // Empties the client queues and returns what they held (the line went down: each waiting
     // request is answered now rather than sent whenever the line comes back).
     [[nodiscard]] std::vector<Job> take_client_jobs();
+    // drivebusd stops: from now on only the lease fallbacks go out (no poll, set-up, keep-alive
+    // or probe), and the line is let go once they are answered.
+    void wind_down() noexcept { fallbacks_only_ = true; }
+    [[nodiscard]] bool winding_down() const noexcept { return fallbacks_only_; }
     // Takes the waiting client request `correlation` out of its queue: false when it is not
     // waiting (taken for the wire, finished, or never queued).
     bool withdraw(std::uint64_t correlation);
@@ -175,6 +179,7 @@ private:
     const BusPlan& bus_;
     std::vector<Drive> drives_;
     bool line_up_ = true;
+    bool fallbacks_only_ = false;
     // Client queues per client, writes and reads apart; served round-robin.
     std::map<std::uint64_t, std::deque<Job>> writes_;
     std::map<std::uint64_t, std::deque<Job>> reads_;

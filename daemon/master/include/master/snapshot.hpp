@@ -189,6 +189,7 @@ struct BusCounters {
     std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
     std::uint64_t held_replies = 0;  // replies whose delivery was held back and still completed
     std::uint64_t sync_probes = 0;   // requests sent to prove a slave in step (master/reply_ledger.hpp)
+    std::uint64_t mute_reopens = 0;  // the port reopened because the open line heard nothing (mute_watch.hpp)
     std::array<std::uint64_t, 12> exceptions{};
 };
 
@@ -213,7 +214,8 @@ struct BusCounters {
     X(line_down) \
     X(late_replies) \
     X(held_replies) \
-    X(sync_probes)
+    X(sync_probes) \
+    X(mute_reopens)
 // clang-format on
 #define DRIVEBUS_MASTER_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) ==
