@@ -249,10 +249,14 @@ std::expected<std::vector<Action>, std::string> plan(const Command& command, con
         actions.push_back(std::move(*a));
     }
     if (command.frequency) {
-        if (profile == nullptr || !profile->control || profile->control->reference.empty()) {
-            return std::unexpected("frequency: the drive's profile names no reference register");
+        if (profile == nullptr) {
+            return std::unexpected("frequency: the drive has no profile");
         }
-        auto a = write_of({.name = profile->control->reference, .value = command.frequency, .raw = {}}, profile);
+        const auto reference = frequency_reference(*profile);
+        if (!reference) {
+            return std::unexpected("frequency: " + reference.error());
+        }
+        auto a = write_of({.name = (*reference)->name, .value = command.frequency, .raw = {}}, profile);
         if (!a) {
             return std::unexpected("frequency: " + a.error());
         }

@@ -108,7 +108,8 @@ REQUIRED = {
 }
 # Named by the man pages as the administrator's, not installed: the udev rule of the board, and
 # the configuration fragments (the drivebusd package ships their directory, empty).
-ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/", "/etc/drivebus/mqtt.toml")
+ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/", "/etc/drivebus/mqtt.toml",
+               "/etc/drivebus/profiles/", "/etc/drivebus/profiles")
 CONFFILES = ["/etc/drivebus/drivebusd.toml", "/etc/drivebus/roudi.toml"]
 GATEWAY_CONFFILES = ["/etc/drivebus/gateway.toml"]
 # drivebus-gateway's snippets (dh_installsystemd): enabled, started, stopped on removal, purged.
