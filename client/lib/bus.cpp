@@ -231,7 +231,10 @@ void Bus::Impl::on_response() {
     {
         std::lock_guard lock(mutex);
         for (const auto& r : got) {
-            if (auto it = waiting.find(r.correlation); it != waiting.end()) {
+            // A withdrawal's "not pending" that crosses the request's own answer does not
+            // replace it.
+            const bool not_pending = r.status == shm::Status::Rejected && r.reason == shm::RejectReason::NotPending;
+            if (auto it = waiting.find(r.correlation); it != waiting.end() && !(it->second && not_pending)) {
                 it->second = r;
             }
         }
@@ -286,6 +289,13 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (request.pid == 0) {
         request.pid = static_cast<std::int32_t>(::getpid());
     }
+    // Past this time the caller has given up: drivebusd drops the request rather than send it.
+    // A deadline of the caller's own that comes sooner stays, and its expiry is told apart.
+    const auto given_up = monotonic_ns(Clock::now() + options.request_timeout);
+    const bool own_deadline = request.deadline_ns != 0 && request.deadline_ns <= given_up;
+    if (!own_deadline && request.kind != shm::RequestKind::Withdraw) {
+        request.deadline_ns = given_up;
+    }
     {
         std::lock_guard lock(mutex);
         if (request.lease_token == shm::LeaseToken{}) {
@@ -323,6 +333,9 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (response && response->status == shm::Status::Rejected && response->reason == shm::RejectReason::NotPending) {
         response.reset();  // drivebusd holds no such request: its answer was lost, or it never came
         answered = false;
+    }
+    if (response && response->status == shm::Status::Expired && !own_deadline) {
+        response->status = shm::Status::Withdrawn;  // dropped at this library's time-out, not the caller's deadline
     }
     if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
         // This request took a lease: its token from now on.

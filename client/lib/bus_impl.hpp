@@ -104,5 +104,7 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
                                           const Profile* profile = nullptr);
 // A rejection's reason and register, in words.
 std::string rejection_text(const shm::Response& response, const Profile* profile);
+// A steady_clock time as CLOCK_MONOTONIC nanoseconds (drivebusd's clock for deadlines).
+std::int64_t monotonic_ns(Clock::time_point t);
 
 }  // namespace drivebus

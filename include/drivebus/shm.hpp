@@ -19,7 +19,7 @@
 
 namespace drivebus::shm {
 
-inline constexpr std::uint32_t kPayloadVersion = 4;
+inline constexpr std::uint32_t kPayloadVersion = 5;
 inline constexpr std::string_view kService = "drivebus";
 inline constexpr std::string_view kStatusEvent = "status";
 inline constexpr std::string_view kRequestEvent = "requests";
@@ -257,6 +257,9 @@ struct Request {
     std::array<char, kNameSize> drive{};
     std::array<char, kNameSize> client_name{};  // for logs: "pump-control[1234]"
     std::array<std::uint16_t, kMaxWriteWords> values{};
+    // Not on the wire by this CLOCK_MONOTONIC time (ns), the request is dropped and answered
+    // Expired, never sent late; 0: none. Past already when drivebusd takes it: Expired at once.
+    std::int64_t deadline_ns = 0;
 };
 
 enum class Status : std::uint8_t {
@@ -271,6 +274,7 @@ enum class Status : std::uint8_t {
     Late = 8,          // every attempt timed out and the drive answered after it: see `late_us`
     Withdrawn = 9,     // withdrawn (RequestKind::Withdraw) before it reached the wire: never sent
     Sent = 10,         // to a Withdraw: the request had reached the wire; its outcome is unknown
+    Expired = 11,      // its deadline (Request::deadline_ns) passed before it reached the wire: never sent
 };
 
 enum class RejectReason : std::uint8_t {
@@ -341,6 +345,7 @@ template <typename T>
     case Status::Late: return "late reply";
     case Status::Withdrawn: return "withdrawn";
     case Status::Sent: return "sent";
+    case Status::Expired: return "expired";
     }
     return "unknown";
 }
