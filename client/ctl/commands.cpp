@@ -104,6 +104,26 @@ Json registers_json(const Drive& drive, std::uint16_t start, const std::vector<s
     return list;
 }
 
+// Which of the words written have no unit in the profile: they went as given, raw, and the
+// user should know that nothing was converted.
+std::string raw_note(const Drive& drive, std::uint16_t start, std::size_t count) {
+    std::string names;
+    for (std::size_t i = 0; i < count; ++i) {
+        const auto address = static_cast<std::uint16_t>(start + i);
+        const auto* info = drive.info(address);
+        if (info == nullptr || info->unit.empty()) {
+            names += (names.empty() ? "" : ", ") + (info != nullptr ? info->name : hex(address));
+        }
+    }
+    if (names.empty()) {
+        return {};
+    }
+    const auto* profile = drive.profile();
+    const bool one = names.find(',') == std::string::npos;
+    return fmt::format("raw word{} written as given: {} {} no unit in the {} profile\n", one ? "" : "s", names,
+                       one ? "has" : "have", profile != nullptr ? profile->type : std::string("drive's"));
+}
+
 }  // namespace
 
 int report(const Options& options, const Error& error, const std::string& context) {
@@ -300,7 +320,8 @@ int run_write(const Options& options, const std::string& drive_name, const std::
                       .set("lease_released", released)
                       .dump());
         } else {
-            print(fmt::format("wrote to drive '{}':\n", drive.name()) + register_lines(drive, start, words));
+            print(fmt::format("wrote to drive '{}':\n", drive.name()) + register_lines(drive, start, words) +
+                  raw_note(drive, start, words.size()));
         }
         return kExitOk;
     });

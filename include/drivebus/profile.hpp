@@ -146,6 +146,11 @@ struct Profile {
     [[nodiscard]] const IndirectBlock* block(std::uint8_t function) const noexcept;
 };
 
+// The register a frequency in Hz is written to: the profile's [control] reference, when the
+// profile gives it the unit "Hz" (and so its scale). Otherwise one line that names the profile
+// and the register, and says why: a number of Hz is never written as a raw word by guess.
+[[nodiscard]] std::expected<const RegisterInfo*, std::string> frequency_reference(const Profile& profile);
+
 // One line that says where and what: "atv21.toml: register FA01: max 70000 is above 65535".
 struct ProfileError {
     std::string message;
@@ -157,7 +162,8 @@ struct ProfileError {
 [[nodiscard]] std::expected<Profile, ProfileError> load_profile(const std::filesystem::path& file);
 
 // Where profiles are looked for by type name, in order: $DRIVEBUS_PROFILE_DIR, the source
-// tree's profiles/ (for builds run from the tree), the installed data directory.
+// tree's profiles/ (for builds run from the tree), the site's directory (/etc/drivebus/profiles
+// for an install in /usr), the installed data directory.
 [[nodiscard]] std::vector<std::filesystem::path> profile_search_path();
 // Finds and loads "<type>.toml" along the search path.
 [[nodiscard]] std::expected<Profile, ProfileError> load_profile_by_type(std::string_view type);

@@ -29,6 +29,8 @@
 //   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
 //                                         expired and whose fallback was acknowledged:
 //                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
+//   test_client BUS frequency DRIVE HZ    Altivar::set_frequency(HZ) on DRIVE, then gives the lease
+//                                         back (release_control): "set"
 // Exit status: 0, or 1 with the library's one-line error on stderr.
 #include <condition_variable>
 #include <cstdio>
@@ -311,6 +313,19 @@ int main(int argc, char** argv) {
             }
         }
         return refused ? 0 : 1;
+    }
+    if (mode == "frequency" && argc == 5) {
+        auto drive = bus->drive(argv[3]);
+        if (!drive) {
+            return fail(drive.error());
+        }
+        const drivebus::Altivar altivar(*drive);
+        if (auto ok = altivar.set_frequency(std::atof(argv[4])); !ok) {
+            return fail(ok.error());
+        }
+        [[maybe_unused]] const auto released = drive->release_control();
+        std::printf("set\n");
+        return 0;
     }
     if ((mode == "command" || mode == "hang") && argc == 4) {
         const drivebus::Altivar altivar(*pump);

@@ -202,6 +202,32 @@ TEST(Atv21, FrequencyReferenceFA01) {
     EXPECT_FALSE(fa01->max.has_value());  // the maximum is the drive's FH, not a constant
 }
 
+// A frequency goes to the reference only when the profile gives it in Hz: the ATV21's FA01 in
+// 0.01 Hz; the ATV58's W401 has no unit or scale in any source, so 50 Hz is never written as 50.
+TEST(FrequencyReference, OnlyAReferenceInHzTakesAFrequency) {
+    const auto atv21 = load_real("atv21");
+    const auto fa01 = frequency_reference(atv21);
+    ASSERT_TRUE(fa01) << fa01.error();
+    EXPECT_EQ((*fa01)->name, "FA01");
+    EXPECT_EQ((*fa01)->from_engineering(50.0), 5000);
+    const auto atv58 = load_real("atv58");
+    const auto w401 = frequency_reference(atv58);
+    ASSERT_FALSE(w401);
+    EXPECT_NE(w401.error().find("the atv58 profile gives its frequency reference W401 no unit and scale"),
+              std::string::npos)
+        << w401.error();
+    auto percent = atv21;
+    for (auto& r : percent.registers) {
+        if (r.name == "FA01") {
+            r.unit = "%";
+        }
+    }
+    EXPECT_NE(frequency_reference(percent).error().find("the unit '%'"), std::string::npos);
+    auto none = atv21;
+    none.control.reset();
+    EXPECT_NE(frequency_reference(none).error().find("names no frequency reference"), std::string::npos);
+}
+
 TEST(Atv21, OutputFrequencyFD00IsReadOnly) {
     const auto p = load_real("atv21");
     const auto* fd00 = p.find("FD00");
@@ -696,19 +722,23 @@ TEST(Files, ErrorsNameTheFilePath) {
         << p.error().message;
 }
 
-TEST(SearchPath, EnvironmentThenSourceTreeThenInstallDir) {
+// The site's directory (etc/) comes before the installed one (share/): a site profile of the
+// same type overrides the packaged one for the daemon and every client alike.
+TEST(SearchPath, EnvironmentThenSourceTreeThenSiteThenInstallDir) {
     {
         const ScopedEnv env("DRIVEBUS_PROFILE_DIR", "/opt/site-profiles");
         const auto dirs = profile_search_path();
-        ASSERT_EQ(dirs.size(), 3U);
+        ASSERT_EQ(dirs.size(), 4U);
         EXPECT_EQ(dirs[0], fs::path("/opt/site-profiles"));
         EXPECT_EQ(dirs[1], profile_dir());
-        EXPECT_TRUE(dirs[2].string().ends_with("/drivebus/profiles")) << dirs[2];
+        EXPECT_TRUE(dirs[2].string().ends_with("etc/drivebus/profiles")) << dirs[2];
+        EXPECT_TRUE(dirs[3].string().ends_with("share/drivebus/profiles")) << dirs[3];
         EXPECT_TRUE(dirs[2].is_absolute());
+        EXPECT_TRUE(dirs[3].is_absolute());
     }
     const ScopedEnv unset("DRIVEBUS_PROFILE_DIR", nullptr);
     const auto dirs = profile_search_path();
-    ASSERT_EQ(dirs.size(), 2U);
+    ASSERT_EQ(dirs.size(), 3U);
     EXPECT_EQ(dirs[0], profile_dir());
 }
 
