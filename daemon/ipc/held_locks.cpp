@@ -2,10 +2,12 @@
 #include "ipc/held_locks.hpp"
 
 #include <linux/futex.h>
+#include <signal.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <climits>
 #include <fstream>
 #include <string>
@@ -31,15 +33,20 @@ void add(std::vector<pthread_mutex_t*>& out, Guarded& guarded) {
 }  // namespace
 
 bool thread_alive(pid_t tid) {
-    // /proc/TID is there for any thread, listed or not; an ended one may linger as a zombie.
+    // kill() takes any thread id and says ESRCH only when it is gone; EPERM (another user's
+    // process) means it exists. /proc may hide other users' processes (the units' ProtectProc=
+    // invisible), so it is only asked whether a thread that exists has ended as a zombie.
+    if (::kill(tid, 0) != 0 && errno == ESRCH) {
+        return false;
+    }
     std::ifstream stat("/proc/" + std::to_string(tid) + "/stat");
     std::string text;
     if (!std::getline(stat, text)) {
-        return false;
+        return true;  // hidden or unreadable: alive, never free a live thread's lock
     }
     const auto paren = text.rfind(')');
     if (paren == std::string::npos || paren + 2 >= text.size()) {
-        return true;  // unreadable: assume alive, never free a live thread's lock
+        return true;
     }
     const char state = text[paren + 2];
     return state != 'Z' && state != 'X' && state != 'x';

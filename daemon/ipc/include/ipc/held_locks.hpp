@@ -29,7 +29,8 @@ class PortPool;
 
 namespace drivebus::ipc {
 
-// Whether thread `tid` exists and has not ended (a zombie has).
+// Whether thread `tid` exists and has not ended (a zombie has). In doubt (its /proc entry
+// hidden), alive.
 [[nodiscard]] bool thread_alive(pid_t tid);
 
 // The holder of `mutex` when it is held and names one; 0 otherwise.
