@@ -12,6 +12,11 @@
 // answer (time-out, bad frame, late, bus down), `other` everything else. With GO, it prints
 // "connected" once connected and sends only when the file GO exists, so that many clients can
 // send at the same moment.
+//   raw_request BUS spam
+// Keeps 8 requests in flight until killed, sending the next as soon as an answer comes, without
+// a pause: much of its time is spent inside iceoryx's send(), where a SIGKILL leaves locks
+// held. They name no drive of the bus, so drivebusd refuses them at once and the line stays
+// free for others. Prints "spamming" after its first answer.
 #include <unistd.h>
 
 #include <chrono>
@@ -143,13 +148,60 @@ int keep(iox::popo::UntypedClient& client, int n) {
     }
 }
 
+bool send_read(iox::popo::UntypedClient& client, std::uint64_t correlation) {
+    using namespace drivebus;
+    auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
+    if (loaned.has_error()) {
+        return false;
+    }
+    shm::Request r;
+    r.size = sizeof r;
+    r.kind = shm::RequestKind::Read;
+    r.correlation = correlation;
+    r.client = static_cast<std::uint64_t>(::getpid());
+    shm::assign(r.drive, "pump");
+    shm::assign(r.client_name, "raw_request spam");
+    shm::assign(r.drive, "nobody");
+    r.start = 0xFD00;
+    r.count = 1;
+    std::memcpy(loaned.value(), &r, sizeof r);
+    return !client.send(loaned.value()).has_error();
+}
+
+[[noreturn]] void spam(iox::popo::UntypedClient& client) {
+    constexpr int kInFlight = 8;
+    std::uint64_t correlation = 0;
+    int in_flight = 0;
+    bool first = true;
+    for (;;) {
+        while (in_flight < kInFlight && send_read(client, ++correlation)) {
+            ++in_flight;
+        }
+        auto taken = client.take();
+        if (taken.has_error()) {
+            continue;
+        }
+        client.releaseResponse(taken.value());
+        --in_flight;
+        if (first) {
+            std::printf("spamming\n");
+            std::fflush(stdout);
+            first = false;
+        }
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     const bool flooding = (argc == 4 || argc == 5) && std::string(argv[2]) == "flood";
     const bool keeping = argc == 4 && std::string(argv[2]) == "keep";
+    const bool spamming = argc == 3 && std::string(argv[2]) == "spam";
     if (argc != 3 && !flooding && !keeping) {
-        std::fprintf(stderr, "usage: raw_request BUS VALUE | raw_request BUS flood N [GO] | raw_request BUS keep N\n");
+        std::fprintf(stderr,
+                     "usage: raw_request BUS VALUE | raw_request BUS flood N [GO] | raw_request BUS keep N | "
+                     "raw_request BUS spam
+");
         return 2;
     }
     using namespace drivebus;
@@ -163,6 +215,9 @@ int main(int argc, char** argv) {
     }
     if (keeping) {
         return keep(client, std::atoi(argv[3]));
+    }
+    if (spamming) {
+        spam(client);
     }
     if (flooding) {
         if (argc == 5) {
