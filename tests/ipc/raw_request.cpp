@@ -200,8 +200,7 @@ int main(int argc, char** argv) {
     if (argc != 3 && !flooding && !keeping) {
         std::fprintf(stderr,
                      "usage: raw_request BUS VALUE | raw_request BUS flood N [GO] | raw_request BUS keep N | "
-                     "raw_request BUS spam
-");
+                     "raw_request BUS spam\n");
         return 2;
     }
     using namespace drivebus;
