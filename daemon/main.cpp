@@ -26,15 +26,16 @@
 #include "ipc/bus_service.hpp"
 #include "ipc/host.hpp"
 #include "log/log.hpp"
+#include "master/comm_timeout.hpp"
 #include "master/line_budget.hpp"
 #include "rt/kernel_facts.hpp"
 #include "rt/memory.hpp"
-#include "rt/realtime.hpp"
-#include "serial/termios.hpp"
+#include "running_bus.hpp"
 #include "serial/tuning.hpp"
 #include "sys/event_loop.hpp"
 
 using namespace drivebus;
+using daemon::RunningBus;
 
 namespace {
 
@@ -51,14 +52,6 @@ std::string describe(const config::Config& c) {
            (drives == 1 ? " drive" : " drives");
 }
 
-// One bus as it runs: its settings (which the loop and the service refer to), its bus thread
-// and its ipc thread.
-struct RunningBus {
-    std::unique_ptr<config::BusConfig> config;
-    std::unique_ptr<bus::BusLoop> loop;
-    std::unique_ptr<ipc::BusService> service;
-};
-
 // For systemd's STATUS=: "line1 up, 2/2 drives online, 1234 replies, 0 timeouts".
 std::string status_line(const std::vector<RunningBus>& buses) {
     std::string out;
@@ -72,25 +65,6 @@ std::string status_line(const std::vector<RunningBus>& buses) {
                " replies, " + std::to_string(s.counters.timeouts) + " timeouts";
     }
     return out;
-}
-
-// The service thread's priority under the bus thread's (rt::service_priority()); refused, a
-// warning: the bus itself runs on.
-void service_thread_realtime(const config::RealtimeConfig& rt, const std::string& bus) {
-    if (rt.mode == config::RealtimeMode::Off) {
-        return;
-    }
-    const auto priority = rt::service_priority(rt.priority);
-    if (!priority) {
-        log::info("bus " + bus +
-                  ": the ipc thread stays at normal priority, the bus threads' priority 1 has "
-                  "nothing under it");
-        return;
-    }
-    if (auto done = rt::make_realtime(*priority, {}); !done) {
-        log::warning("bus " + bus + ": ipc thread (control leases and their fallback): " + done.error() +
-                     "; running at normal priority");
-    }
 }
 
 std::string fmt_mib(const std::string& before, std::size_t kib) {
@@ -108,6 +82,9 @@ std::expected<void, std::string> check_and_warn(const config::Config& c) {
         for (const auto& line : master::line_budget_warnings(bus)) {
             log::warning(line);
         }
+        for (const auto& line : master::comm_timeout_warnings(bus)) {
+            log::warning(line);
+        }
     }
     for (const auto& bus : c.buses) {
         if (auto usable = bus::check_line(bus); !usable) {
@@ -117,45 +94,6 @@ std::expected<void, std::string> check_and_warn(const config::Config& c) {
     return {};
 }
 
-// Starts one bus: its thread, then its ipc thread (with the leases a reload carried over).
-std::expected<RunningBus, std::string> start_bus(const config::BusConfig& settings, const config::RealtimeConfig& rt,
-                                                 const ipc::Layout& layout, const rt::KernelFacts& kernel,
-                                                 const ipc::Carried& carried) {
-    RunningBus b;
-    b.config = std::make_unique<config::BusConfig>(settings);
-    const auto& bus = *b.config;
-    // What stands on the kernel's side between the wire and the bus's reads: a notice where a
-    // setting works against exact framing (docs/rs485.md).
-    for (const auto& finding : rt::judge(kernel, rt::read_port_facts(serial::tty_name(bus.device)))) {
-        log::write(finding.against_framing ? log::Level::Notice : log::Level::Info,
-                   "bus " + bus.name + ": " + finding.text, {.bus = bus.name});
-    }
-    // The bus thread and the ipc thread meet only in the loop's hand-over rings.
-    bus::LoopOptions loop_options;
-    loop_options.realtime = rt;
-    loop_options.send_spin = rt.send_spin;
-    b.loop = std::make_unique<bus::BusLoop>(bus, master::EngineCallbacks{}, std::move(loop_options));
-    b.service = std::make_unique<ipc::BusService>(bus, layout, *b.loop, carried);
-    if (auto started = b.loop->start(); !started) {
-        return std::unexpected(started.error() + "; [realtime] mode is required");
-    }
-    log::notice("bus " + bus.name + ": " + bus.device.string() + ", " + serial::describe(bus.format) + ", " +
-                    std::to_string(bus.drives.size()) + " drives",
-                {.bus = bus.name});
-    b.service->start([rt, name = bus.name] { service_thread_realtime(rt, name); });
-    return b;
-}
-
-// Stops one bus for good or for a restart: the bus thread first, so that every request it had
-// is answered (the one on the wire as the line going down does), then the ipc thread, which
-// answers them and the rest, and gives up the leases held now and the snapshots' sequences.
-ipc::Carried stop_bus(RunningBus& b) {
-    b.loop->stop();
-    auto carried = b.service->retire();
-    b.service.reset();
-    b.loop.reset();
-    return carried;
-}
 }  // namespace
 
 int run_main(int argc, char** argv) {
@@ -235,17 +173,12 @@ int run_main(int argc, char** argv) {
         log::notice("shared memory: " + note);
     }
 
-    // The running buses. Each is stopped bus thread first (stop_bus()).
+    // The running buses. Stopped for good, each first writes its held leases' fallbacks.
     std::vector<RunningBus> buses;
-    const auto stop_all = [&] {
-        for (auto& b : buses) {
-            (void)stop_bus(b);
-        }
-        buses.clear();
-    };
+    const auto stop_all = [&] { daemon::end_buses(buses); };
     const auto kernel = rt::read_kernel_facts(rt.mode == config::RealtimeMode::Off ? std::vector<int>{} : rt.cpus);
     for (const auto& b : config->buses) {
-        auto started = start_bus(b, rt, (*ipc_host)->layout(), kernel, {});
+        auto started = daemon::start_bus(b, rt, (*ipc_host)->layout(), kernel, {});
         if (!started) {
             log::error(started.error());
             stop_all();
@@ -316,20 +249,24 @@ int run_main(int argc, char** argv) {
         };
         std::map<std::string, ipc::Carried> carried;
         std::vector<RunningBus> kept;
+        std::vector<RunningBus> dropped;
         for (auto& b : buses) {
             if (in(plan->keep, b.config->name)) {
                 kept.push_back(std::move(b));
+            } else if (in(plan->stop, b.config->name)) {
+                dropped.push_back(std::move(b));
             } else {
-                carried[b.config->name] = stop_bus(b);
+                carried[b.config->name] = daemon::restart_bus(b);
             }
         }
+        daemon::end_buses(dropped);
         buses = std::move(kept);
         const auto now_rt = next->realtime;
         for (const auto& settings : next->buses) {
             if (in(plan->keep, settings.name)) {
                 continue;
             }
-            auto started = start_bus(settings, now_rt, (*ipc_host)->layout(), kernel, carried[settings.name]);
+            auto started = daemon::start_bus(settings, now_rt, (*ipc_host)->layout(), kernel, carried[settings.name]);
             if (!started) {
                 // Only a refused real-time priority, with mode = "required": nothing else differs
                 // from the start, which was granted it.

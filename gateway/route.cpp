@@ -131,7 +131,8 @@ std::optional<Exception> exception_for(const shm::Response& response) noexcept {
     case S::Sent: return Exception::GatewayTargetFailed;
     case S::QueueFull:
     case S::NotPermitted:
-    case S::Withdrawn: return Exception::ServerDeviceBusy;
+    case S::Withdrawn:
+    case S::Expired: return Exception::ServerDeviceBusy;
     case S::BusDown: return Exception::GatewayPathUnavailable;
     case S::Rejected: break;
     }
@@ -157,7 +158,8 @@ Exception exception_for(const Error& error) noexcept {
     switch (error.kind) {
     case ErrorKind::Exception: return static_cast<Exception>(error.exception);
     case ErrorKind::QueueFull:
-    case ErrorKind::Withdrawn: return Exception::ServerDeviceBusy;
+    case ErrorKind::Withdrawn:
+    case ErrorKind::Expired: return Exception::ServerDeviceBusy;
     case ErrorKind::Timeout:
     case ErrorKind::BadFrame:
     case ErrorKind::LateReply:

@@ -56,9 +56,9 @@ Bridge::Bridge(const Config& config) : config_(config), topics_(config.node) {
         buses_.push_back(std::move(link));
     }
     link_ = std::make_unique<BrokerLink>(
-        config_,
-        BrokerLink::Callbacks{.connected = [this] { on_connected(); },
-                              .message = [this](std::string_view t, std::string_view p) { on_message(t, p); }});
+        config_, BrokerLink::Callbacks{.connected = [this] { on_connected(); },
+                                       .message = [this](std::string_view t, std::string_view p,
+                                                         bool retained) { on_message(t, p, retained); }});
 }
 
 Bridge::~Bridge() {
@@ -120,7 +120,9 @@ void Bridge::refuse(const Topics::Target& target, const Json& id, std::string_vi
 }
 
 // On the network thread: refuses at once what can be refused without drivebusd, queues the rest.
-void Bridge::on_message(std::string_view topic, std::string_view payload) {
+void Bridge::on_message(std::string_view topic, std::string_view payload, bool retained) {
+    const auto received = std::chrono::system_clock::now();
+    const auto arrived = Clock::now();
     const auto target = topics_.parse_set(topic);
     if (!target) {
         return;
@@ -134,6 +136,14 @@ void Bridge::on_message(std::string_view topic, std::string_view payload) {
     const auto parsed = parse_command(payload, config_.limits.max_payload);
     if (!parsed) {
         refuse(*target, parsed.error().id, "malformed", parsed.error().message);
+        return;
+    }
+    // The broker hands a retained command to every new subscription, however old: the bridge's
+    // every reconnection would carry it out again.
+    if (retained) {
+        refuse(*target, parsed->id, "retained",
+               "a retained command is never carried out: publish commands without the retain flag, and clear "
+               "this one (an empty retained message on the same topic)");
         return;
     }
     std::unique_lock lock(mutex_);
@@ -163,7 +173,7 @@ void Bridge::on_message(std::string_view topic, std::string_view payload) {
                std::to_string(config_.limits.command_queue) + " commands already wait: try again later");
         return;
     }
-    jobs_.push_back(Job{target->bus, target->drive, std::string(payload)});
+    jobs_.push_back(Job{target->bus, target->drive, std::string(payload), received, arrived});
     lock.unlock();
     jobs_ready_.notify_one();
 }
@@ -205,11 +215,23 @@ void Bridge::carry_out(const Job& job) {
         return;
     }
     bool renewed = false;
+    std::string done_so_far;
     for (const auto& a : *actions) {
+        // Checked before each action: a command that has run out of time acts no further.
+        const auto left =
+            time_left(command->freshness, job.received, Clock::now() - job.arrived, config_.limits.max_command_age);
+        if (!left) {
+            refuse(target, command->id, left.error().reason,
+                   done_so_far.empty() ? left.error().message
+                                       : left.error().message + " (" + done_so_far + " done before: not undone)");
+            return;
+        }
         std::expected<void, Error> done;
         switch (a.kind) {
         case Action::Kind::Write: {
             const std::array<std::uint16_t, 1> word{a.raw};
+            // Where libdrivebus takes a deadline (WriteOptions), *left belongs there too, so that a
+            // write held up in drivebusd's queue is withdrawn rather than sent late.
             done = drive->drive.write(a.address, word);
             break;
         }
@@ -234,6 +256,10 @@ void Bridge::carry_out(const Job& job) {
                            1, false);
             return;
         }
+        done_so_far +=
+            (done_so_far.empty() ? "" : ", ") +
+            (a.kind == Action::Kind::Write ? "write " + a.name
+                                           : std::string(a.kind == Action::Kind::KeepAlive ? "heartbeat" : "release"));
     }
     if (!renewed) {
         // A write to a register outside the lease's own does not renew it: the command's arrival does.

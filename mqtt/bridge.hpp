@@ -21,6 +21,7 @@
 #include "drivebus/client.hpp"
 #include "mqtt/backoff.hpp"
 #include "mqtt/config.hpp"
+#include "mqtt/freshness.hpp"
 #include "mqtt/payload.hpp"
 #include "mqtt/topics.hpp"
 
@@ -53,10 +54,12 @@ private:
         std::string bus;
         std::string drive;
         std::string payload;
+        WallTime received;          // the wall clock when it arrived: its sent_at is compared with this
+        Clock::time_point arrived;  // the same moment on the steady clock: its wait is measured from this
     };
 
     void on_connected();
-    void on_message(std::string_view topic, std::string_view payload);
+    void on_message(std::string_view topic, std::string_view payload, bool retained);
     void refuse(const Topics::Target& target, const Json& id, std::string_view reason, std::string_view message);
     void work();
     void carry_out(const Job& job);

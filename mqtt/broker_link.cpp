@@ -190,7 +190,8 @@ void BrokerLink::on_message(mosquitto* /*m*/, void* self, const mosquitto_messag
         link.callbacks_.message(
             message->topic,
             std::string_view(static_cast<const char*>(message->payload),
-                             message->payload != nullptr ? static_cast<std::size_t>(message->payloadlen) : 0U));
+                             message->payload != nullptr ? static_cast<std::size_t>(message->payloadlen) : 0U),
+            message->retain);
     }
 }
 

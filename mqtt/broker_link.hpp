@@ -38,7 +38,8 @@ public:
 
     struct Callbacks {
         std::function<void()> connected;  // on the network thread, after the birth message
-        std::function<void(std::string_view topic, std::string_view payload)> message;
+        // `retained`: the broker kept it and hands it over on (re)subscription, however old it is.
+        std::function<void(std::string_view topic, std::string_view payload, bool retained)> message;
     };
 
     BrokerLink(const Config& config, Callbacks callbacks);

@@ -65,6 +65,11 @@ public:
     // "count=N short=M min_us=... p50_us=... p99_us=... max_us=..." (short: definitely below t3.5).
     [[nodiscard]] std::string silence_summary() const;
 
+    // A mute line: the adapter on the master's side stays present and delivers nothing (a known
+    // ftdi_sio failure), until the master opens the port again (the event loop watches for it).
+    void set_muted(bool muted) noexcept { muted_ = muted; }
+    [[nodiscard]] bool muted() const noexcept { return muted_; }
+
     [[nodiscard]] FaultTable& faults() noexcept { return faults_; }
     [[nodiscard]] const FaultCounters& counters() const noexcept { return counters_; }
     [[nodiscard]] const BusOptions& options() const noexcept { return options_; }
@@ -84,6 +89,7 @@ private:
     std::vector<double> silences_us_;
     std::uint64_t short_silences_ = 0;
     std::uint64_t slips_ = 0;
+    bool muted_ = false;
 };
 
 }  // namespace drivebus::sim

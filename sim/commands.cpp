@@ -10,7 +10,8 @@ namespace {
 
 constexpr std::string_view kHelp =
     "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
-    "writes ADDR | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power ADDR";
+    "writes ADDR | requests ADDR | mute | unmute | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power "
+    "ADDR";
 
 std::vector<std::string_view> words(std::string_view line) {
     std::vector<std::string_view> out;
@@ -133,6 +134,32 @@ std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
         }
         return out;
     }
+    if (verb == "mute" && w.size() == 1) {
+        bus.set_muted(true);
+        return "ok";
+    }
+    if (verb == "unmute" && w.size() == 1) {
+        bus.set_muted(false);
+        return "ok";
+    }
+    if (verb == "requests" && w.size() == 2) {
+        const auto address = target(bus, w[1], false);
+        if (!address) {
+            return error(address.error());
+        }
+        const auto* drive = bus.drive(*address);
+        std::string out = "ok total=" + std::to_string(drive->requests_received());
+        char item[32];
+        for (const auto& r : drive->request_log()) {
+            if (r.value) {
+                std::snprintf(item, sizeof item, " %02u:0x%04X=%u", r.function, r.start, *r.value);
+            } else {
+                std::snprintf(item, sizeof item, " %02u:0x%04X", r.function, r.start);
+            }
+            out += item;
+        }
+        return out;
+    }
     if (verb == "get" && w.size() == 3) {
         const auto address = target(bus, w[1], false);
         if (!address) {
@@ -212,6 +239,24 @@ std::expected<void, std::string> apply_option_argument(Bus& bus, std::string_vie
                                ") has no option '" + std::string(key) + "'");
     }
     return {};
+}
+
+std::expected<void, std::string> apply_set_argument(Bus& bus, std::string_view argument) {
+    const auto colon = argument.find(':');
+    const auto eq = argument.find('=');
+    if (colon == std::string_view::npos || eq == std::string_view::npos || eq < colon) {
+        return std::unexpected("'" + std::string(argument) + "' is not ADDR:REG=VALUE");
+    }
+    const auto address = target(bus, argument.substr(0, colon), false);
+    if (!address) {
+        return std::unexpected(address.error());
+    }
+    const std::string_view text = argument.substr(eq + 1);
+    const auto value = word_value(text);
+    if (!value) {
+        return std::unexpected("'" + std::string(text) + "' is not a 16-bit value (0-65535 or 0x0000-0xFFFF)");
+    }
+    return bus.drive(*address)->poke(argument.substr(colon + 1, eq - colon - 1), *value);
 }
 
 }  // namespace drivebus::sim

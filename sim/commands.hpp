@@ -18,5 +18,8 @@ namespace drivebus::sim {
 [[nodiscard]] std::expected<void, std::string> apply_fault_argument(Bus& bus, std::string_view argument);
 // "ADDR:key=value", as --option takes it.
 [[nodiscard]] std::expected<void, std::string> apply_option_argument(Bus& bus, std::string_view argument);
+// "ADDR:REG=VALUE", as --set takes it: a register's value from the start (F803=0: a drive whose
+// Modbus time-out is off), as the control socket's `set`.
+[[nodiscard]] std::expected<void, std::string> apply_set_argument(Bus& bus, std::string_view argument);
 
 }  // namespace drivebus::sim

@@ -19,6 +19,7 @@ rtu::Response ProfileDrive::exception(FunctionCode function, ExceptionCode code)
 
 rtu::Response ProfileDrive::handle(const rtu::Request& request, bool broadcast, rtu::Instant now) {
     advance(now);
+    log_request(request);
     on_request(broadcast, now);
     struct Dispatch {
         ProfileDrive& drive;
@@ -33,6 +34,24 @@ rtu::Response ProfileDrive::handle(const rtu::Request& request, bool broadcast, 
         log_writes(request);
     }
     return response;
+}
+
+void ProfileDrive::log_request(const rtu::Request& request) {
+    Received r;
+    if (const auto* read = std::get_if<rtu::ReadHoldingRegisters>(&request)) {
+        r = {3, read->start, std::nullopt};
+    } else if (const auto* one = std::get_if<rtu::WriteSingleRegister>(&request)) {
+        r = {6, one->address, one->value};
+    } else if (const auto* many = std::get_if<rtu::WriteMultipleRegisters>(&request)) {
+        r = {16, many->start, std::nullopt};
+    } else {
+        r = {43, 0, std::nullopt};
+    }
+    if (request_log_.size() == kWriteLogSize) {
+        request_log_.pop_front();
+    }
+    request_log_.push_back(r);
+    ++requests_received_;
 }
 
 void ProfileDrive::log_writes(const rtu::Request& request) {

@@ -38,6 +38,15 @@ public:
     [[nodiscard]] const std::deque<std::pair<std::uint16_t, std::uint16_t>>& write_log() const noexcept {
         return write_log_;
     }
+    // The last requests addressed to the drive (broadcasts included), oldest first, however
+    // they were answered: what reached it, in order.
+    struct Received {
+        std::uint8_t function = 0;
+        std::uint16_t start = 0;
+        std::optional<std::uint16_t> value;  // FC06's
+    };
+    [[nodiscard]] const std::deque<Received>& request_log() const noexcept { return request_log_; }
+    [[nodiscard]] std::uint64_t requests_received() const noexcept { return requests_received_; }
     // How many register writes the drive has accepted since it started: the log keeps only the
     // last ones, so a reader that comes back tells from this how many of them are new.
     [[nodiscard]] std::uint64_t writes_accepted() const noexcept { return writes_accepted_; }
@@ -80,6 +89,9 @@ private:
     void log_writes(const rtu::Request& request);
     std::deque<std::pair<std::uint16_t, std::uint16_t>> write_log_;
     std::uint64_t writes_accepted_ = 0;
+    void log_request(const rtu::Request& request);
+    std::deque<Received> request_log_;
+    std::uint64_t requests_received_ = 0;
 };
 
 // Makes the drive for a profile type ("atv21", "atv58", or any other profile as a plain

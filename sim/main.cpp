@@ -61,6 +61,11 @@ int run(const sim::Options& o) {
             fail(kExitUsage, "--option " + opt + ": " + ok.error());
         }
     }
+    for (const std::string& reg : o.registers) {
+        if (auto ok = sim::apply_set_argument(bus, reg); !ok) {
+            fail(kExitUsage, "--set " + reg + ": " + ok.error());
+        }
+    }
 
     // Precise wake-ups for pacing: the default 50 us timer slack would blur every character.
     ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
@@ -150,6 +155,9 @@ int run(const sim::Options& o) {
                 loop.stop();
                 return;
             }
+            if (bus.muted()) {
+                continue;  // the master's bytes go nowhere, and nothing comes back
+            }
             const auto bytes = std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(*n));
             const rtu::Instant read_time = sys::now();
             // A new frame begins: how long after our last character did the master start it?
@@ -189,6 +197,16 @@ int run(const sim::Options& o) {
             }
         }
     }));
+    // A mute line ends when the master opens the port again, as a stuck adapter recovers.
+    const sys::UniqueFd opens = sim::watch_opens(line);
+    if (opens.get() >= 0) {
+        added.push_back(loop.add(opens.get(), [&] {
+            if (sim::drain_opens(opens.get()) && bus.muted()) {
+                bus.set_muted(false);
+                std::cerr << "drivebus-sim: the line was opened again: no longer mute\n";
+            }
+        }));
+    }
     for (const auto& a : added) {
         if (!a) {
             std::cerr << "drivebus-sim: event loop: " << a.error().message() << '\n';
@@ -245,6 +263,7 @@ int run_main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--fault", o.faults, "[ADDR:]key=value fault injection (see docs/simulator.md)");
     app.add_option("--option", o.drive_options, "ADDR:key=value drive setting, e.g. 1:load=80");
+    app.add_option("--set", o.registers, "ADDR:REG=VALUE a register's value from the start, e.g. 1:F803=0");
     app.add_option("--control", o.control, "control socket PATH for commands while running");
     app.add_option("--seed", o.seed, "seed for the shares of faulty replies")->capture_default_str();
     app.add_option("--profile-dir", o.profile_dir, "directory with the drive profiles (TYPE.toml)");

@@ -3,10 +3,12 @@
 #include "setup.hpp"
 
 #include <fcntl.h>
+#include <sys/inotify.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
@@ -140,6 +142,39 @@ void remove_link(const Line& line) {
     std::error_code ec;
     if (fs::is_symlink(line.link, ec) && fs::read_symlink(line.link, ec) == line.pty->slave_path) {
         fs::remove(line.link, ec);
+    }
+}
+
+sys::UniqueFd watch_opens(const Line& line) {
+    if (!line.pty) {
+        return {};
+    }
+    auto fd = sys::posix_call("inotify_init1", [] { return ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC); });
+    if (!fd) {
+        return {};
+    }
+    sys::UniqueFd watch(*fd);
+    if (!sys::posix_call("inotify_add_watch",
+                         [&] { return ::inotify_add_watch(watch.get(), line.pty->slave_path.c_str(), IN_OPEN); })) {
+        return {};
+    }
+    return watch;
+}
+
+bool drain_opens(int fd) {
+    alignas(inotify_event) std::array<char, 4096> buffer{};
+    bool opened = false;
+    for (;;) {
+        const auto n = sys::posix_call("read", [&] { return ::read(fd, buffer.data(), buffer.size()); });
+        if (!n || *n <= 0) {
+            return opened;
+        }
+        for (std::size_t at = 0; at + sizeof(inotify_event) <= static_cast<std::size_t>(*n);) {
+            inotify_event event{};
+            std::memcpy(&event, buffer.data() + at, sizeof event);
+            opened = opened || (event.mask & IN_OPEN) != 0;
+            at += sizeof(inotify_event) + event.len;
+        }
     }
 }
 

@@ -30,6 +30,7 @@ struct Options {
     std::string turnaround = "1ms";
     std::vector<std::string> faults;
     std::vector<std::string> drive_options;
+    std::vector<std::string> registers;  // --set ADDR:REG=VALUE
     std::string control;
     std::uint32_t seed = 1;
     std::string profile_dir;
@@ -55,5 +56,11 @@ void add_drives(const Options& o, Bus& bus, const rtu::LineFormat& format);
 [[nodiscard]] Line open_line(const Options& o, const rtu::LineFormat& format);
 // Removes the link if it still points at this line's pty.
 void remove_link(const Line& line);
+
+// An inotify descriptor that turns readable when someone opens the pty's side a master uses
+// (-1 for a tty given with --device, or when inotify is refused); drain_opens() reads its
+// events and says whether one was an open.
+[[nodiscard]] sys::UniqueFd watch_opens(const Line& line);
+[[nodiscard]] bool drain_opens(int fd);
 
 }  // namespace drivebus::sim

@@ -104,17 +104,24 @@ Json registers_json(const Drive& drive, std::uint16_t start, const std::vector<s
     return list;
 }
 
-// Whether writing `count` registers from `start` touches the drive's control lease registers.
-bool touches_lease(const Drive& drive, std::uint16_t start, std::size_t count) {
-    const auto* profile = drive.profile();
-    if (profile == nullptr || !profile->control) {
-        return false;
+// Which of the words written have no unit in the profile: they went as given, raw, and the
+// user should know that nothing was converted.
+std::string raw_note(const Drive& drive, std::uint16_t start, std::size_t count) {
+    std::string names;
+    for (std::size_t i = 0; i < count; ++i) {
+        const auto address = static_cast<std::uint16_t>(start + i);
+        const auto* info = drive.info(address);
+        if (info == nullptr || info->unit.empty()) {
+            names += (names.empty() ? "" : ", ") + (info != nullptr ? info->name : hex(address));
+        }
     }
-    return std::ranges::any_of(profile->control->lease_registers, [&](const std::string& name) {
-        const auto* r = profile->find(name);
-        return r != nullptr && r->address && *r->address >= start &&
-               *r->address < static_cast<std::size_t>(start) + count;
-    });
+    if (names.empty()) {
+        return {};
+    }
+    const auto* profile = drive.profile();
+    const bool one = names.find(',') == std::string::npos;
+    return fmt::format("raw word{} written as given: {} {} no unit in the {} profile\n", one ? "" : "s", names,
+                       one ? "has" : "have", profile != nullptr ? profile->type : std::string("drive's"));
 }
 
 }  // namespace
@@ -261,7 +268,7 @@ int run_read(const Options& options, const std::string& drive_name, const std::s
 }
 
 int run_write(const Options& options, const std::string& drive_name, const std::string& reg,
-              const std::vector<std::string>& value_args, bool take_over) {
+              const std::vector<std::string>& value_args, const WriteOptions& write_options) {
     return guarded([&] {
         const auto context = fmt::format("write {} {}", drive_name, reg);
         const auto bus = connect(options);
@@ -284,17 +291,13 @@ int run_write(const Options& options, const std::string& drive_name, const std::
             }
             words.push_back(*word);
         }
-        WriteOptions write_options;
-        write_options.take_over = take_over;
         const auto written = drive.write(start, words, write_options);
-        // A write to the command or reference took the control lease (drivebusd takes it before the
-        // bus, so also when the drive then failed to answer): give it back, or drivebusd would
-        // apply the fallback once this process stops renewing it.
+        // A write that reached the command or reference, directly or through an indirect block,
+        // took the control lease, and drivebusd's answer (its result, or the drive's failure to
+        // answer) handed this process its token: give the lease back, or drivebusd would apply the
+        // fallback once this process stops renewing it. A refused write took nothing.
         bool released = false;
-        if (touches_lease(drive, start, words.size()) &&
-            (written ||
-             (written.error().kind != ErrorKind::NotPermitted && written.error().kind != ErrorKind::Rejected &&
-              written.error().kind != ErrorKind::InvalidArgument))) {
+        if (drive.holds_control()) {
             released = drive.release_control().has_value();
             if (released) {
                 std::fflush(stdout);
@@ -317,7 +320,8 @@ int run_write(const Options& options, const std::string& drive_name, const std::
                       .set("lease_released", released)
                       .dump());
         } else {
-            print(fmt::format("wrote to drive '{}':\n", drive.name()) + register_lines(drive, start, words));
+            print(fmt::format("wrote to drive '{}':\n", drive.name()) + register_lines(drive, start, words) +
+                  raw_note(drive, start, words.size()));
         }
         return kExitOk;
     });

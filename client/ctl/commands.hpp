@@ -31,7 +31,7 @@ int run_list(const Options& options);
 int run_status(const Options& options, const std::string& drive);
 int run_read(const Options& options, const std::string& drive, const std::string& reg, std::uint16_t count);
 int run_write(const Options& options, const std::string& drive, const std::string& reg,
-              const std::vector<std::string>& values, bool take_over);
+              const std::vector<std::string>& values, const WriteOptions& write_options);
 int run_identify(const Options& options, const std::string& drive);
 int run_scan(const Options& options, int from, int to, const std::string& reg);
 int run_watch(const Options& options, std::chrono::milliseconds interval);  // watch.cpp

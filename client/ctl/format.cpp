@@ -124,6 +124,7 @@ int exit_code(ErrorKind kind) noexcept {
     case ErrorKind::DaemonGone: return kExitUnavailable;
     case ErrorKind::QueueFull: return kExitQueueFull;
     case ErrorKind::Withdrawn: return kExitWithdrawn;
+    case ErrorKind::Expired: return kExitExpired;
     case ErrorKind::NoReply:
     case ErrorKind::OutcomeUnknown: return kExitUnknown;
     }

@@ -24,6 +24,7 @@ inline constexpr int kExitUnavailable = 5;   // no drivebusd, no such bus, bus d
 inline constexpr int kExitQueueFull = 6;
 inline constexpr int kExitWithdrawn = 7;  // not answered in time, withdrawn: never sent
 inline constexpr int kExitUnknown = 8;    // not answered in time, already sent: outcome unknown
+inline constexpr int kExitExpired = 9;    // not on the wire by its --deadline: dropped, never sent
 
 [[nodiscard]] int exit_code(ErrorKind kind) noexcept;
 // The kind as JSON names it: "not_permitted".

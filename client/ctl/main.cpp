@@ -2,7 +2,7 @@
 // drivebusctl: looks at and commands the drives drivebusd runs (docs/drivebusctl.md).
 //
 //   drivebusctl [--bus NAME] [--json] [--timeout DURATION] [--profile-dir DIR] COMMAND ...
-//     list | status [DRIVE] | read DRIVE REG [COUNT] | write DRIVE REG VALUE... [--take-over]
+//     list | status [DRIVE] | read DRIVE REG [COUNT] | write DRIVE REG VALUE... [--take-over] [--deadline D]
 //     identify DRIVE | watch [--interval DURATION] | scan [--from A] [--to B] [--register R]
 //     udev-rule [DEVICE] [--name N] [--group G] [--by-path] [--start UNIT] [--properties FILE]...
 //               [--gpio-chip CHIP]... [--config FILE]      (needs no drivebusd)
@@ -80,6 +80,9 @@ int main(int argc, char** argv) {
     write->add_option("REG", reg, "register: profile name (FA01) or number")->required();
     write->add_option("VALUE", values, "raw (300, 0x12C) or with the register's unit (30Hz, '30.5 Hz')")->required();
     write->add_flag("--take-over", take_over, "take the control lease from the client that holds it");
+    std::string deadline;
+    write->add_option("--deadline", deadline,
+                      "not on the wire within this time (like 200ms), the write is dropped, never sent (exit 9)");
 
     auto* identify = app.add_subcommand("identify", "vendor, product code and revision (FC43/14)");
     identify->add_option("DRIVE", drive, "drive name or address")->required();
@@ -155,7 +158,16 @@ int main(int argc, char** argv) {
         return ctl::run_read(options, drive, reg, count);
     }
     if (write->parsed()) {
-        return ctl::run_write(options, drive, reg, values, take_over);
+        WriteOptions write_options;
+        write_options.take_over = take_over;
+        if (!deadline.empty()) {
+            std::chrono::milliseconds by{};
+            if (!duration(options, "--deadline", deadline, by, bad)) {
+                return bad;
+            }
+            write_options.deadline = by;
+        }
+        return ctl::run_write(options, drive, reg, values, write_options);
     }
     if (identify->parsed()) {
         return ctl::run_identify(options, drive);

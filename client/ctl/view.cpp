@@ -93,6 +93,81 @@ Json counters_json(const std::vector<std::pair<std::string, std::uint64_t>>& cou
     return out;
 }
 
+// A time-out in a list: "3 s", "off", "1 s, may fire", "-" when not known.
+std::string comm_timeout_cell(shm::CommTimeoutState state, shm::CommTimeoutVerdict verdict, std::uint32_t ms) {
+    using State = shm::CommTimeoutState;
+    if (state == State::Unknown) {
+        return "-";
+    }
+    if (state == State::ReadRefused) {
+        return "unreadable";
+    }
+    std::string out = ms == 0 ? std::string("off") : fmt::format("{:g} s", ms / 1000.0);
+    if (verdict == shm::CommTimeoutVerdict::MayFire) {
+        out += ", may fire";
+    }
+    if (state == State::WriteRefused || state == State::ReadBack) {
+        out += ", not as configured";
+    }
+    return out;
+}
+
+// What a drive's snapshot says of its own Modbus time-out, in one phrase.
+std::string comm_timeout_text(const shm::CommTimeout& c, const Profile* profile) {
+    using State = shm::CommTimeoutState;
+    const SafetyInfo* safety = profile != nullptr && profile->safety ? &*profile->safety : nullptr;
+    const std::string reg = safety != nullptr ? safety->comm_timeout : std::string("time-out");
+    const auto seconds = [](std::uint32_t ms) {
+        return ms == 0 ? std::string("off") : fmt::format("{:g} s", ms / 1000.0);
+    };
+    const auto refusal = [&] { return c.exception != 0 ? fmt::format("exception {}", c.exception) : "no valid reply"; };
+    std::string out;
+    switch (c.state) {
+    case State::Unknown: return safety != nullptr ? "not read yet" : "none named by the profile";
+    case State::ReadRefused: return fmt::format("{} could not be read ({})", reg, refusal());
+    case State::Read: out = fmt::format("{} = {}", reg, seconds(c.timeout_ms)); break;
+    case State::Written: out = fmt::format("{} = {}, written as configured", reg, seconds(c.timeout_ms)); break;
+    case State::WriteRefused:
+        out = fmt::format("{} = {}; writing the configured {} was refused ({})", reg, seconds(c.timeout_ms),
+                          seconds(c.wanted_ms), refusal());
+        break;
+    case State::ReadBack:
+        out = fmt::format("{} = {}; written {}, it reads back otherwise", reg, seconds(c.timeout_ms),
+                          seconds(c.wanted_ms));
+        break;
+    }
+    if (c.action_valid != 0 && safety != nullptr) {
+        const RegisterInfo* action = profile->find(std::string_view(safety->comm_fault_action));
+        const auto meaning = action != nullptr ? value_meaning(*action, c.action) : std::string();
+        out += fmt::format("; when it fires: {} = {}{}", safety->comm_fault_action, c.action,
+                           meaning.empty() ? "" : " (" + meaning + ")");
+    }
+    const std::string gap = c.gap_ms == 0 ? std::string("nothing bounds the time between drivebusd's requests")
+                                          : fmt::format("drivebusd's requests at most {:g} s apart", c.gap_ms / 1000.0);
+    switch (c.verdict) {
+    case shm::CommTimeoutVerdict::None: break;
+    case shm::CommTimeoutVerdict::Fine: out += "; fine (" + gap + ")"; break;
+    case shm::CommTimeoutVerdict::Off: out += "; OFF: if the line or drivebusd dies, the drive runs on"; break;
+    case shm::CommTimeoutVerdict::MayFire: out += "; MAY FIRE on a healthy line (" + gap + ")"; break;
+    }
+    return out;
+}
+
+Json comm_timeout_json(const shm::CommTimeout& c, const Profile* profile) {
+    const SafetyInfo* safety = profile != nullptr && profile->safety ? &*profile->safety : nullptr;
+    const bool known = c.state != shm::CommTimeoutState::Unknown && c.state != shm::CommTimeoutState::ReadRefused;
+    auto out = Json::object();
+    out.set("register", safety != nullptr ? Json(safety->comm_timeout) : Json());
+    out.set("state", shm::to_string(c.state)).set("verdict", shm::to_string(c.verdict));
+    out.set("raw", known ? Json(c.raw) : Json()).set("timeout_ms", known ? Json(c.timeout_ms) : Json());
+    out.set("wanted_ms", c.wanted_ms != 0 ? Json(c.wanted_ms) : Json());
+    out.set("exception", c.exception != 0 ? Json(c.exception) : Json());
+    out.set("gap_ms", c.gap_ms != 0 ? Json(c.gap_ms) : Json());
+    out.set("fault_action_register", safety != nullptr ? Json(safety->comm_fault_action) : Json());
+    out.set("fault_action", c.action_valid != 0 ? Json(c.action) : Json());
+    return out;
+}
+
 }  // namespace
 
 std::int64_t monotonic_ns() noexcept {
@@ -209,6 +284,7 @@ std::string drive_status_text(const shm::DriveSnapshot& s, const Profile* profil
         fields.emplace_back("state", state_text(decode_state(*profile, s), *profile));
     }
     fields.emplace_back("lease", lease_text(s.lease, now_ns));
+    fields.emplace_back("time-out", comm_timeout_text(s.comm_timeout, profile));
     fields.emplace_back("counters", counters_text(drive_counters(s.counters)));
     std::string out = render_fields(fields);
     std::vector<Row> rows = {{"NAME", "ADDRESS", "RAW", "VALUE", "VALID", "AGE", "TITLE"}};
@@ -229,6 +305,7 @@ Json drive_status_json(const shm::DriveSnapshot& s, const Profile* profile, std:
     out.set("sequence", s.sequence).set("age_ms", (now_ns - s.published_ns) / 1'000'000);
     out.set("counters", counters_json(drive_counters(s.counters)));
     out.set("lease", lease_json(s.lease, now_ns));
+    out.set("comm_timeout", comm_timeout_json(s.comm_timeout, profile));
     out.set("state", has_state(profile) ? state_json(decode_state(*profile, s)) : Json());
     auto registers = Json::array();
     for (std::size_t i = 0; i < s.register_count && i < s.registers.size(); ++i) {
@@ -284,11 +361,12 @@ Json bus_status_json(const shm::BusStatus& s, bool can_request, std::int64_t now
 }
 
 std::vector<Row> drive_rows(const shm::BusStatus& s) {
-    std::vector<Row> rows = {{"NAME", "ADDRESS", "PROFILE", "HEALTH"}};
+    std::vector<Row> rows = {{"NAME", "ADDRESS", "PROFILE", "HEALTH", "TIME-OUT"}};
     for (std::size_t i = 0; i < s.drive_count && i < s.drives.size(); ++i) {
         const auto& d = s.drives[i];
         rows.push_back({std::string(shm::view(d.name)), std::to_string(d.address), std::string(shm::view(d.profile)),
-                        std::string(shm::to_string(d.health))});
+                        std::string(shm::to_string(d.health)),
+                        comm_timeout_cell(d.comm_timeout_state, d.comm_timeout_verdict, d.comm_timeout_ms)});
     }
     return rows;
 }
@@ -301,7 +379,11 @@ Json drives_json(const shm::BusStatus& s) {
                         .set("name", shm::view(d.name))
                         .set("address", d.address)
                         .set("profile", shm::view(d.profile))
-                        .set("health", shm::to_string(d.health)));
+                        .set("health", shm::to_string(d.health))
+                        .set("comm_timeout", Json::object()
+                                                 .set("state", shm::to_string(d.comm_timeout_state))
+                                                 .set("verdict", shm::to_string(d.comm_timeout_verdict))
+                                                 .set("timeout_ms", d.comm_timeout_ms)));
     }
     return drives;
 }

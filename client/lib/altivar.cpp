@@ -84,11 +84,15 @@ DriveState decode_state(const Profile& profile, const shm::DriveSnapshot& s) {
 
 std::expected<void, Error> Altivar::set_frequency(double hz, WriteOptions options) const {
     const auto* profile = drive_.profile();
-    if (profile == nullptr || !profile->control || profile->control->reference.empty()) {
-        return std::unexpected(make_error(ErrorKind::Unsupported,
-                                          "drive '" + drive_.name() + "': its profile names no reference register"));
+    if (profile == nullptr) {
+        return std::unexpected(make_error(ErrorKind::Unsupported, "drive '" + drive_.name() + "': it has no profile"));
     }
-    const auto* r = profile->find(profile->control->reference);
+    const auto reference = frequency_reference(*profile);
+    if (!reference) {
+        return std::unexpected(
+            make_error(ErrorKind::Unsupported, "drive '" + drive_.name() + "': " + reference.error()));
+    }
+    const auto* r = *reference;
     const auto raw = r->from_engineering(hz);
     if (!raw || !r->in_range(*raw)) {
         return std::unexpected(make_error(ErrorKind::InvalidArgument, "drive '" + drive_.name() +

@@ -46,6 +46,8 @@ Bus::Impl::~Impl() {
         const std::lock_guard lock(gate->mutex);  // after a callback under way
         gate->impl = nullptr;
     }
+    // After a Done under way; a send() still inside iceoryx keeps the client port.
+    const bool abandoned = sender && sender->stop();
     if (!alive()) {
         (void)listener.release();
         (void)gate.release();
@@ -63,6 +65,9 @@ Bus::Impl::~Impl() {
     listener.reset();
     for (auto& d : drives) {
         d->subscriber.reset();
+    }
+    if (abandoned) {
+        (void)client.release();
     }
     client.reset();
     status_subscriber.reset();
@@ -151,6 +156,26 @@ std::expected<void, Error> Bus::Impl::open() {
             iox::capro::ServiceDescription{id(shm::kService), id(name), id(shm::kRequestEvent)}, o);
         (void)listener->attachEvent(*client, iox::popo::ClientEvent::RESPONSE_RECEIVED,
                                     iox::popo::createNotificationCallback(response_arrived, *gate));
+        auto hand_over = [port = client.get()](const shm::Request& r) {
+            auto loaned = port->loan(sizeof(shm::Request), alignof(shm::Request));
+            if (loaned.has_error()) {
+                return false;
+            }
+            std::memcpy(loaned.value(), &r, sizeof r);
+            return !port->send(loaned.value()).has_error();
+        };
+        sender = std::make_unique<Sender>(std::move(hand_over), [this](const shm::Request& r, bool sent) {
+            if (r.kind == shm::RequestKind::Withdraw) {
+                return;  // its answer is the request's own
+            }
+            {
+                std::lock_guard lock(mutex);
+                if (auto it = waiting.find(r.correlation); it != waiting.end()) {
+                    it->second.handed = sent ? Handed::Sent : Handed::Refused;
+                }
+            }
+            changed.notify_all();
+        });
         const auto deadline = Clock::now() + options.connect_timeout;
         while (client->getConnectionState() != iox::ConnectionState::CONNECTED && Clock::now() < deadline) {
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -215,24 +240,24 @@ void Bus::Impl::on_drive_sample(DriveFeed& feed) {
 
 void Bus::Impl::on_response() {
     std::vector<shm::Response> got;
-    {
-        std::lock_guard lock(client_mutex);
-        for (;;) {
-            auto taken = client->take();
-            if (taken.has_error()) {
-                break;
-            }
-            shm::Response r{};
-            std::memcpy(&r, taken.value(), sizeof r);
-            client->releaseResponse(taken.value());
-            got.push_back(r);
+    for (;;) {
+        auto taken = client->take();
+        if (taken.has_error()) {
+            break;
         }
+        shm::Response r{};
+        std::memcpy(&r, taken.value(), sizeof r);
+        client->releaseResponse(taken.value());
+        got.push_back(r);
     }
     {
         std::lock_guard lock(mutex);
         for (const auto& r : got) {
-            if (auto it = waiting.find(r.correlation); it != waiting.end()) {
-                it->second = r;
+            // A withdrawal's "not pending" that crosses the request's own answer does not
+            // replace it.
+            const bool not_pending = r.status == shm::Status::Rejected && r.reason == shm::RejectReason::NotPending;
+            if (auto it = waiting.find(r.correlation); it != waiting.end() && !(it->second.response && not_pending)) {
+                it->second.response = r;
             }
         }
     }
@@ -254,14 +279,12 @@ DriveFeed* Bus::Impl::feed(std::string_view which) {
     return nullptr;
 }
 
-bool Bus::Impl::send(const shm::Request& request) {
-    std::lock_guard lock(client_mutex);
-    auto loaned = client->loan(sizeof(shm::Request), alignof(shm::Request));
-    if (loaned.has_error()) {
-        return false;
-    }
-    std::memcpy(loaned.value(), &request, sizeof request);
-    return !client->send(loaned.value()).has_error();
+void Bus::Impl::wait_for_answer(std::unique_lock<std::mutex>& lock, std::uint64_t correlation,
+                                Clock::time_point deadline) {
+    changed.wait_until(lock, deadline, [&] {
+        const auto& p = waiting.at(correlation);
+        return p.response.has_value() || p.handed == Handed::Refused;
+    });
 }
 
 std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
@@ -286,6 +309,13 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (request.pid == 0) {
         request.pid = static_cast<std::int32_t>(::getpid());
     }
+    // Past this time the caller has given up: drivebusd drops the request rather than send it.
+    // A deadline of the caller's own that comes sooner stays, and its expiry is told apart.
+    const auto given_up = monotonic_ns(Clock::now() + options.request_timeout);
+    const bool own_deadline = request.deadline_ns != 0 && request.deadline_ns <= given_up;
+    if (!own_deadline && request.kind != shm::RequestKind::Withdraw) {
+        request.deadline_ns = given_up;
+    }
     {
         std::lock_guard lock(mutex);
         if (request.lease_token == shm::LeaseToken{}) {
@@ -293,41 +323,65 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
             request.lease_token = it != lease_tokens.end() ? it->second : latest_token;
         }
         request.correlation = next_correlation++;
-        waiting.emplace(request.correlation, std::nullopt);
+        waiting.emplace(request.correlation, Pending{});
     }
-    const bool sent = send(request);
+    // The sender's thread hands it to iceoryx: whatever iceoryx waits on, this caller waits no
+    // longer than its time-out (sender.hpp). Never with `mutex` held: Done takes it.
+    const auto given_up_at = Clock::now() + options.request_timeout;
+    sender->post(request);
     std::unique_lock lock(mutex);
-    if (!sent) {
+    wait_for_answer(lock, request.correlation, given_up_at);
+    if (waiting.at(request.correlation).handed == Handed::Refused) {
         waiting.erase(request.correlation);
         return std::unexpected(make_error(ErrorKind::DaemonGone,
                                           "drivebusd is not taking requests on bus '" + name + "' (has it stopped?)"));
     }
-    bool answered =
-        changed.wait_for(lock, options.request_timeout, [&] { return waiting.at(request.correlation).has_value(); });
+    bool answered = waiting.at(request.correlation).response.has_value();
     if (!answered) {
-        // Given up: withdrawn if it has not reached the wire, and told which happened. The
-        // answer is the request's own result if it finished meanwhile.
         lock.unlock();
-        shm::Request withdraw = request;
-        withdraw.kind = shm::RequestKind::Withdraw;
-        const bool asked = send(withdraw);
+        const bool never_sent = sender->withdraw(request.correlation);
         lock.lock();
-        if (asked) {
-            answered =
-                changed.wait_for(lock, std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)),
-                                 [&] { return waiting.at(request.correlation).has_value(); });
+        if (never_sent) {
+            waiting.erase(request.correlation);
+            return std::unexpected(make_error(
+                ErrorKind::Withdrawn, "iceoryx did not take the request within " +
+                                          std::to_string(options.request_timeout.count()) +
+                                          " ms (a client killed while sending may hold its lock): nothing was sent"));
         }
     }
-    auto response = waiting.at(request.correlation);
+    if (!answered && waiting.at(request.correlation).handed == Handed::Sent) {
+        // Given up: withdrawn if it has not reached the wire, and told which happened. The
+        // answer is the request's own result if it finished meanwhile.
+        shm::Request withdraw = request;
+        withdraw.kind = shm::RequestKind::Withdraw;
+        lock.unlock();
+        sender->post(withdraw);
+        lock.lock();
+        wait_for_answer(lock, request.correlation,
+                        Clock::now() + std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)));
+        answered = waiting.at(request.correlation).response.has_value();
+    }
+    auto response = waiting.at(request.correlation).response;
+    const auto handed = waiting.at(request.correlation).handed;
     waiting.erase(request.correlation);
     if (response && response->status == shm::Status::Rejected && response->reason == shm::RejectReason::NotPending) {
         response.reset();  // drivebusd holds no such request: its answer was lost, or it never came
         answered = false;
     }
+    if (response && response->status == shm::Status::Expired && !own_deadline) {
+        response->status = shm::Status::Withdrawn;  // dropped at this library's time-out, not the caller's deadline
+    }
     if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
         // This request took a lease: its token from now on.
         lease_tokens[std::string(shm::view(request.drive))] = response->lease_token;
         latest_token = response->lease_token;
+    }
+    if (!answered && handed == Handed::Not) {
+        return std::unexpected(make_error(
+            ErrorKind::NoReply, "iceoryx has not let the request go within " +
+                                    std::to_string(options.request_timeout.count()) +
+                                    " ms (a client killed while sending may hold its lock): the outcome is unknown "
+                                    "(read the register back)"));
     }
     if (!answered || !response) {
         const bool gone = !(status.has_value() && Clock::now() - status_time < options.daemon_silence);

@@ -15,6 +15,7 @@
 #include "iceoryx_posh/popo/listener.hpp"
 #include "iceoryx_posh/popo/subscriber.hpp"
 #include "iceoryx_posh/popo/untyped_client.hpp"
+#include "sender.hpp"
 
 namespace drivebus {
 
@@ -52,8 +53,9 @@ struct Bus::Impl {
 
     std::expected<void, Error> open();  // ports, first status, drives
     std::expected<shm::Response, Error> call(shm::Request request);
-    // Hands `request` to drivebusd's request server; false when it cannot be sent.
-    bool send(const shm::Request& request);
+    // Waits, up to `deadline`, for a request's answer or the sender's word that iceoryx refused
+    // it; `lock` holds `mutex`.
+    void wait_for_answer(std::unique_lock<std::mutex>& lock, std::uint64_t correlation, Clock::time_point deadline);
     [[nodiscard]] bool alive() const;
     [[nodiscard]] DriveFeed* feed(std::string_view name);
 
@@ -74,7 +76,14 @@ struct Bus::Impl {
     std::vector<std::unique_ptr<DriveFeed>> drives;
     std::map<std::uint64_t, std::function<void(const shm::BusStatus&)>> status_callbacks;
     std::uint64_t next_callback = 1;
-    std::unordered_map<std::uint64_t, std::optional<shm::Response>> waiting;  // by correlation
+    // A request's way: waiting to be handed to iceoryx, handed over, refused by iceoryx; and
+    // its answer.
+    enum class Handed : std::uint8_t { Not, Sent, Refused };
+    struct Pending {
+        Handed handed = Handed::Not;
+        std::optional<shm::Response> response;
+    };
+    std::unordered_map<std::uint64_t, Pending> waiting;  // by correlation
     std::uint64_t next_correlation = 1;
     // The tokens of the control leases this Bus took, by drive name, and the latest one, which
     // a request to a drive with none presents (drivebusd then gives a lease it takes that same
@@ -82,9 +91,11 @@ struct Bus::Impl {
     std::map<std::string, shm::LeaseToken, std::less<>> lease_tokens;
     shm::LeaseToken latest_token{};
 
-    std::mutex client_mutex;  // the client port is used by callers and the listener
+    // The client port: requests go out on the sender's thread only, responses come in on the
+    // listener's thread only (iceoryx keeps the two halves of a port apart).
     std::unique_ptr<iox::popo::Subscriber<shm::BusStatus>> status_subscriber;
     std::unique_ptr<iox::popo::UntypedClient> client;
+    std::unique_ptr<Sender> sender;
     std::unique_ptr<iox::popo::Listener> listener;
     std::unique_ptr<CallbackGate> gate = std::make_unique<CallbackGate>();
 };
@@ -104,5 +115,7 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
                                           const Profile* profile = nullptr);
 // A rejection's reason and register, in words.
 std::string rejection_text(const shm::Response& response, const Profile* profile);
+// A steady_clock time as CLOCK_MONOTONIC nanoseconds (drivebusd's clock for deadlines).
+std::int64_t monotonic_ns(Clock::time_point t);
 
 }  // namespace drivebus

@@ -129,6 +129,9 @@ std::expected<void, Error> Drive::write(std::uint16_t address, std::span<const s
     r.start = address;
     r.count = static_cast<std::uint16_t>(values.size());
     std::ranges::copy(values, r.values.begin());
+    if (options.deadline) {
+        r.deadline_ns = monotonic_ns(Clock::now() + *options.deadline);
+    }
     auto response = bus_->call(r);
     if (!response) {
         return std::unexpected(response.error());
@@ -180,6 +183,11 @@ std::expected<void, Error> Drive::release_control() const {
         return std::unexpected(response.error());
     }
     return check_response("drive '" + name_ + "'", *response, profile_.get());
+}
+
+bool Drive::holds_control() const {
+    std::lock_guard lock(bus_->mutex);
+    return bus_->lease_tokens.contains(name_);
 }
 
 }  // namespace drivebus

@@ -10,6 +10,10 @@ std::string_view exception_name(std::uint8_t code) noexcept {
     return rtu::to_string(static_cast<rtu::ExceptionCode>(code));
 }
 
+std::int64_t monotonic_ns(Clock::time_point t) {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
+}
+
 Error make_error(ErrorKind kind, std::string message) {
     Error e;
     e.kind = kind;
@@ -33,6 +37,7 @@ std::string_view to_string(ErrorKind kind) noexcept {
     case ErrorKind::NoReply: return "no reply";
     case ErrorKind::Withdrawn: return "withdrawn";
     case ErrorKind::OutcomeUnknown: return "outcome unknown";
+    case ErrorKind::Expired: return "expired";
     case ErrorKind::InvalidArgument: return "invalid argument";
     case ErrorKind::Unsupported: return "unsupported";
     }
@@ -83,6 +88,11 @@ std::expected<void, Error> check_response(const std::string& what, const shm::Re
         e.kind = ErrorKind::Withdrawn;
         e.message = "drivebusd did not answer in time; the request to " + what +
                     " was withdrawn before it reached the drive: nothing was sent";
+        break;
+    case shm::Status::Expired:
+        e.kind = ErrorKind::Expired;
+        e.message =
+            "the request to " + what + " was not on the wire by its deadline: drivebusd dropped it, nothing was sent";
         break;
     case shm::Status::Sent:
         e.kind = ErrorKind::OutcomeUnknown;

@@ -71,6 +71,11 @@ void BusLoop::stop() {
     }
 }
 
+void BusLoop::wind_down() {
+    winding_.store(true);
+    wake_.signal();
+}
+
 std::expected<void, master::SubmitError> BusLoop::submit(const master::ClientRequest& request) {
     if (!handover_.requests.try_push(request)) {
         return std::unexpected(master::SubmitError::QueueFull);

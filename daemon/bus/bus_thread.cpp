@@ -9,6 +9,7 @@
 #include "bus/desk.hpp"
 #include "bus/line_opener.hpp"
 #include "log/log.hpp"
+#include "master/mute_watch.hpp"
 #include "serial/direction.hpp"
 #include "serial/port.hpp"
 #include "serial/tx_tracker.hpp"
@@ -32,7 +33,8 @@ public:
           engine_(bus, timing_, desk_.callbacks(callbacks), sys::now()),
           uart_(serial::kernel_uart_control()),
           heartbeat_(shared.heartbeat),
-          wake_(shared.wake) {
+          wake_(shared.wake),
+          winding_(shared.winding) {
         desk_.attach(engine_);
         auto woken = loop_.add(wake_.fd(), [this] { on_wake(); });
         auto timed = loop_.add(timer_.fd(), [this] {
@@ -49,6 +51,9 @@ public:
     [[nodiscard]] const std::optional<std::string>& broken() const noexcept { return broken_; }
 
     void run() override {
+        // What waits in the ring before the line opens: the fallbacks of the leases the last
+        // drivebusd held when it ended, which go out before anything else.
+        desk_.take_requests();
         try_open();
         drive();
         if (auto ran = loop_.run(); !ran) {
@@ -74,7 +79,12 @@ private:
             loop_.stop();
             return;
         }
+        // Read before the ring: the fallbacks submitted before the wind-down are then taken.
+        const bool winding = winding_.load();
         desk_.take_requests();
+        if (winding && !engine_.winding_down()) {
+            engine_.wind_down(sys::now());
+        }
         drive();
     }
 
@@ -94,6 +104,25 @@ private:
             return;
         }
         engine_.line_up(sys::now());
+        mute_.opened(engine_.status().counters, sys::now());
+    }
+
+    // Open and hearing nothing while its requests time out: the adapter may have stopped
+    // delivering (a known ftdi_sio failure), and only a close and open brings it back.
+    void reopen_if_mute(rtu::Instant now) {
+        if (!port_ || !mute_.mute(engine_.status().counters, now)) {
+            return;
+        }
+        limiter_.write(
+            log::Level::Warning, "mute",
+            "bus " + bus_.name + ": " + port_->device().string() + ": nothing received for " +
+                std::to_string(std::chrono::duration_cast<std::chrono::seconds>(mute_.silent_for()).count()) +
+                " s while every request timed out; reopening the port",
+            {.bus = bus_.name});
+        close_port();
+        engine_.line_down(now);
+        engine_.count_mute_reopen();
+        try_open();
     }
 
     void close_port() {
@@ -159,6 +188,7 @@ private:
         }
         desk_.retry_fallbacks(now);
         engine_.on_time(now);
+        reopen_if_mute(now);
         if (port_ && tracker_ && tracker_->busy() && now >= tracker_->next_check()) {
             if (const auto done = tracker_->check(now)) {
                 if (auto released = direction_->transmit_done(sys::now()); !released) {
@@ -287,9 +317,7 @@ private:
         if (tracker_ && tracker_->busy()) {
             consider(tracker_->next_check());
         }
-        if (!port_) {
-            consider(opener_.next_try());
-        }
+        consider(port_ ? mute_.next_check() : opener_.next_try());
         if (sending_) {
             consider(sending_->give_up);
         }
@@ -370,10 +398,12 @@ private:
     master::BusEngine engine_;
     std::unique_ptr<serial::UartControl> uart_;
     LineOpener opener_{bus_, *uart_};
+    master::MuteWatch mute_{bus_.mute_reopen, std::chrono::minutes(5)};
     std::atomic<std::uint64_t>& heartbeat_;
     sys::EventLoop loop_;
     sys::Timer timer_;
     const sys::EventFd& wake_;
+    const std::atomic<bool>& winding_;
     std::optional<serial::Port> port_;
     std::unique_ptr<serial::Direction> direction_;
     std::optional<serial::TransmitTracker> tracker_;
@@ -387,7 +417,7 @@ private:
 std::expected<std::unique_ptr<BusLoop::Impl>, std::string> BusLoop::Impl::create(
     const config::BusConfig& bus, const master::EngineCallbacks& callbacks, const LoopOptions& options,
     BusLoop& outer) {
-    const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_};
+    const Shared shared{outer.up_, outer.handover_, outer.status_, outer.heartbeat_, outer.wake_, outer.winding_};
     auto thread = std::make_unique<BusThread>(bus, callbacks, options, shared);
     if (const auto& broken = thread->broken()) {
         return std::unexpected(*broken);

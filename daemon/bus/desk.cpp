@@ -37,7 +37,7 @@ void Desk::take_requests() {
             take_fallback(request);
             continue;
         }
-        if (!engine_->up()) {
+        if (!engine_->up() || engine_->winding_down()) {
             handover_.put(refused(request.correlation, Refusal::BusDown));
             continue;
         }

@@ -62,6 +62,22 @@ void read_device(Section& s, const toml::table& /*table*/, const Key<BusConfig>&
     }
 }
 
+void read_state_dir(Section& s, const toml::table& /*table*/, const Key<BusConfig>& key, BusConfig& bus) {
+    if (auto dir = absolute_path(s, key.name, key.need)) {
+        bus.state_dir = std::move(*dir);
+    }
+}
+
+void read_mute_reopen(Section& s, const toml::table& table, const Key<BusConfig>& key, BusConfig& bus) {
+    if (const auto* text = table.get_as<std::string>(key.name); text != nullptr && text->get() == "off") {
+        bus.mute_reopen = std::nullopt;
+        return;
+    }
+    if (const auto after = duration(s, table, key.name, key.range.shortest, key.range.longest)) {
+        bus.mute_reopen = *after;
+    }
+}
+
 void read_lock_dir(Section& s, const toml::table& /*table*/, const Key<BusConfig>& key, BusConfig& bus) {
     if (auto dir = absolute_path(s, key.name, key.need)) {
         bus.lock_dir = std::move(*dir);
@@ -211,7 +227,7 @@ std::string shown_late_reply_guard(const Key<BusConfig>& /*key*/) {
 }
 
 // The order is the order of reading: the line before the direction that drives it.
-constexpr Table<BusConfig, 16> kBusKeys = {
+constexpr Table<BusConfig, 18> kBusKeys = {
     BusKeys::custom("name", "string", Need::Required, words("[a-z0-9_-]+"), read_name, nullptr,
                     "names the bus's services"),
     BusKeys::custom("device", "string", Need::Required, words("absolute path"), read_device, nullptr,
@@ -243,6 +259,12 @@ constexpr Table<BusConfig, 16> kBusKeys = {
     BusKeys::integer<&BusConfig::queue_limit>("queue_limit", 1, 4096, "client requests in flight on this bus"),
     BusKeys::custom("lock_dir", "string", Need::Optional, words("absolute path"), read_lock_dir,
                     BusKeys::shown<&BusConfig::lock_dir>, "directory of UUCP lock files; none: no lock file"),
+    BusKeys::custom("state_dir", "string", Need::Optional, words("absolute path"), read_state_dir,
+                    BusKeys::shown<&BusConfig::state_dir>,
+                    "where the bus's lease record is kept (BUS.leases), for the fallbacks across a restart"),
+    BusKeys::custom("mute_reopen", "duration or \"off\"", Need::Optional, durations(100ms, 1h), read_mute_reopen,
+                    BusKeys::shown<&BusConfig::mute_reopen>,
+                    "every drive silent this long while the port is open: the port is reopened"),
 };
 
 void read_drives(Section& s, Errors& errors, ProfileCache& profiles, DriveNames& drive_names, BusConfig& bus) {

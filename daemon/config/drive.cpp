@@ -6,6 +6,7 @@
 
 #include "drivebus/shm.hpp"
 #include "keys.hpp"
+#include "master/comm_timeout.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {
@@ -154,6 +155,40 @@ void read_fallback(Section& s, const toml::table& /*table*/, const Key<DriveDraf
     }
 }
 
+// The drive's own Modbus time-out, written at commissioning: the profile must name a writable
+// time-out register ([safety] comm_timeout) and the value be a whole number of its counts in its
+// range. Never its "off" value: drivebusd does not switch the drive's guard off.
+void read_comm_timeout(Section& s, const toml::table& table, const Key<DriveDraft>& key, DriveDraft& draft) {
+    auto& drive = draft.drive;
+    const auto value = duration(s, table, key.name, key.range.shortest, key.range.longest);
+    if (!value || !drive.profile) {
+        return;
+    }
+    const Profile& p = *drive.profile;
+    const RegisterInfo* r = p.safety ? p.find(std::string_view(p.safety->comm_timeout)) : nullptr;
+    if (r == nullptr) {
+        s.fail("comm_timeout is set, but profile " + in_quotes(p.type) + " names no Modbus time-out register");
+        return;
+    }
+    if (!writable(r->access)) {
+        s.fail("comm_timeout is set, but " + r->name + " of profile " + in_quotes(p.type) + " is not writable");
+        return;
+    }
+    drive.comm_timeout = *value;
+    const auto raw = master::comm_timeout_raw(drive);
+    if (!raw || (p.safety->comm_timeout_off && *raw == *p.safety->comm_timeout_off)) {
+        const auto ms = [&](std::int32_t n) {
+            return duration_text(std::chrono::milliseconds(p.safety->milliseconds(static_cast<std::uint16_t>(n))));
+        };
+        s.fail("comm_timeout " + duration_text(*value) + " is not a whole number of " + r->name + "'s steps of " +
+               duration_text(std::chrono::duration_cast<Duration>(
+                   std::chrono::duration<double>(p.safety->comm_timeout_seconds))) +
+               " between " + ms(std::max(r->min.value_or(0), p.safety->comm_timeout_off ? 1 : 0)) + " and " +
+               ms(r->max.value_or(65535)));
+        drive.comm_timeout.reset();
+    }
+}
+
 void read_write_block(Section& /*s*/, const toml::table& /*table*/, const Key<DriveDraft>& key, DriveDraft& draft) {
     draft.write_block = key.name;
 }
@@ -166,7 +201,7 @@ std::string shown_fallback(const Key<DriveDraft>& /*key*/) {
     return "\"stop\" when the profile has a stop command word, else \"hold\"";
 }
 
-constexpr Table<DriveDraft, 7> kDriveKeys = {
+constexpr Table<DriveDraft, 8> kDriveKeys = {
     DriveKeys::custom("name", "string", Need::Required, words("[a-z0-9_-]+"), read_name, nullptr,
                       "unique across all buses"),
     DriveKeys::custom("address", "integer", Need::Required, words("the profile's address_min-address_max"),
@@ -184,6 +219,10 @@ constexpr Table<DriveDraft, 7> kDriveKeys = {
                       words("the profile's write block's min_quantity-max_quantity registers"), read_write_block,
                       DriveKeys::shown<&DriveDraft::drive, &DriveConfig::write_block>,
                       "the registers the indirect write block selects, slot by slot"),
+    DriveKeys::custom("comm_timeout", "duration", Need::Optional, durations(1ms, 1h), read_comm_timeout,
+                      DriveKeys::shown<&DriveDraft::drive, &DriveConfig::comm_timeout>,
+                      "the drive's own Modbus time-out (ATV21 F803, whole seconds 1-100), written when the drive comes "
+                      "online and holds another value"),
 };
 
 }  // namespace

@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <future>
 #include <stdexcept>
 #include <thread>
 
 #include "iceoryx_posh/popo/subscriber.hpp"
 #include "ipc/intake.hpp"
 #include "ipc/lease_policy.hpp"
+#include "ipc/lease_record_file.hpp"
 #include "ipc/lease_token.hpp"
 #include "ipc/publisher.hpp"
 #include "ipc/service.hpp"
@@ -37,15 +39,22 @@ struct BusService::Impl {
           leases(b, random_tokens()),
           publisher(b, layout),
           intake(b, l, leases, std::move(server)),
-          stop_fd("eventfd for bus " + b.name + "'s ipc thread") {}
+          record(b),
+          stop_fd("eventfd for bus " + b.name + "'s ipc thread"),
+          wind_fd("eventfd for bus " + b.name + "'s wind-down") {}
 
     const config::BusConfig& bus;
     bus::BusLoop& loop;
     LeasePolicy leases;
     Publisher publisher;
     Intake intake;
+    LeaseRecordFile record;
     sys::EventFd stop_fd;
+    sys::EventFd wind_fd;
     std::thread thread;
+    bool winding = false;
+    std::promise<void> wound;  // set once every surrendered lease's fallback is answered
+    bool wound_set = false;
 
     rtu::Instant next_status{};
     bool last_up = false;
@@ -61,17 +70,24 @@ struct BusService::Impl {
                                              [&] {
                                                  intake.take(sys::now());
                                                  republish();
+                                                 keep_record();
                                              }),
                                   events.add(handover.ready_fd(),
                                              [&] {
                                                  handover.acknowledge();
                                                  drain();
                                                  republish();
+                                                 keep_record();
                                              }),
                                   events.add(timer.fd(),
                                              [&] {
                                                  timer.acknowledge();
                                                  tick(timer);
+                                             }),
+                                  events.add(wind_fd.fd(),
+                                             [&] {
+                                                 wind_fd.drain();
+                                                 wind_down();
                                              }),
                                   events.add(stop_fd.fd(), [&] { events.stop(); })};
         for (const auto& a : added) {
@@ -124,6 +140,56 @@ struct BusService::Impl {
         }
     }
 
+    // The lease record follows every change of who holds what (not the renewals: the same
+    // record is not written again).
+    void keep_record() {
+        record.keep(leases.record());
+        if (winding && !wound_set && !leases.fallbacks_pending()) {
+            wound_set = true;
+            wound.set_value();
+        }
+    }
+
+    // Submitted to the bus (a fallback the bus cannot take is answered failed at once).
+    void apply(const FallbackAction& f) {
+        write_note(f.note);
+        if (f.write && !intake.submit_own(f.drive, *f.write)) {
+            write_note(leases.fallback_done(f.drive, master::Outcome::BusDown, true).note);
+        }
+        publisher.lease(f.drive, leases.status(f.drive));
+    }
+
+    // drivebusd stops: no request is taken any more, every lease held ends with its fallback,
+    // and the bus sends those alone.
+    void wind_down() {
+        if (winding) {
+            return;
+        }
+        winding = true;
+        intake.close();
+        for (const auto& f : leases.surrender(sys::now())) {
+            apply(f);
+        }
+        loop.wind_down();
+        keep_record();
+    }
+
+    // drivebusd starts: the leases its predecessor held when it ended get their fallbacks,
+    // submitted before the bus thread runs, so that they are the first requests on the line.
+    void recover() {
+        const auto recorded = record.read();
+        if (!recorded) {
+            return;
+        }
+        auto recovery = leases.recover(*recorded, sys::now());
+        for (const auto& note : recovery.notes) {
+            write_note(note);
+        }
+        for (const auto& f : recovery.fallbacks) {
+            apply(f);
+        }
+    }
+
     void republish() {
         for (const auto drive : intake.take_republish()) {
             publisher.lease(drive, leases.status(drive));
@@ -133,13 +199,10 @@ struct BusService::Impl {
     void tick(sys::Timer& timer) {
         const auto now = sys::now();
         for (const auto& f : leases.expire(now)) {
-            write_note(f.note);
-            if (f.write && !intake.submit_own(f.drive, *f.write)) {
-                write_note(leases.fallback_done(f.drive, master::Outcome::BusDown, true).note);
-            }
-            publisher.lease(f.drive, leases.status(f.drive));
+            apply(f);
         }
         republish();
+        keep_record();
         // Once a second, and at once when the line goes up or down.
         const bool up = loop.up();
         if (now >= next_status || up != last_up || status_due) {
@@ -164,13 +227,26 @@ BusService::BusService(const config::BusConfig& bus, const Layout& layout, bus::
         write_note(note);
     }
     impl_->publisher.continue_sequences(carried.sequences);
-    // The adopted leases are published with each drive's first snapshot.
+    // A bus restarted by a reload carries its leases; any other start finds out what the last
+    // drivebusd held.
+    if (!carried.server) {
+        impl_->recover();
+    }
+    impl_->keep_record();
+    // The adopted and recovered leases are published with each drive's first snapshot.
+}
+
+std::future<void> BusService::wind_down() {
+    auto done = impl_->wound.get_future();
+    impl_->wind_fd.signal();
+    return done;
 }
 
 Carried BusService::retire() {
     stop();
     impl_->drain();
     impl_->intake.abandon();
+    impl_->keep_record();
     return {impl_->leases.carry(), impl_->publisher.sequences(), impl_->intake.release()};
 }
 

@@ -8,9 +8,12 @@
 #include <fmt/format.h>
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <mutex>
 #include <optional>
+#include <stop_token>
 #include <thread>
 
 #include "drivebus/shm.hpp"
@@ -21,6 +24,7 @@
 #include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
+#include "ipc/held_locks.hpp"
 #include "ipc/leftovers.hpp"
 #include "ipc/seal.hpp"
 #include "log/log.hpp"
@@ -120,16 +124,37 @@ std::expected<void, std::string> seal_all(const Layout& layout) {
 // RouDi that still listens. (initRuntime()'s runtime is a static that outlives every object
 // of main(); at exit it would send its TERMINATION to a RouDi already gone, and iceoryx logs
 // that as two errors on every clean stop.)
+// The reaper frees the port locks killed clients left held (held_locks.hpp) well before RouDi's
+// monitoring (1.5 s without a keep-alive) cleans up after them and would wait on those locks.
 struct Host::Embedded {
     explicit Embedded(const iox::RouDiConfig_t& config) : components(config) {}
     void serve() {
         roudi.emplace(components.rouDiMemoryManager, components.portManager,
                       iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
                                                                 /*killProcessesInDestructor=*/false});
+        if (auto pool = components.rouDiMemoryManager.portPool(); pool.has_value()) {
+            reaper = std::jthread([this, p = pool.value()](const std::stop_token& stop) { reap(*p, stop); });
+        }
     }
+    void reap(iox::roudi::PortPool& pool, const std::stop_token& stop) {
+        HeldLockReaper reaper_of_locks;
+        std::mutex mutex;
+        std::condition_variable_any woken;
+        std::unique_lock lock(mutex);
+        while (!woken.wait_for(lock, stop, kReapPeriod, [] { return false; })) {
+            // Ports come and go meanwhile on RouDi's threads: a port's memory stays mapped, and
+            // a lock is only written when its holder has ended.
+            const auto locks = port_locks(pool);
+            if (const auto freed = reaper_of_locks.sweep(locks); freed > 0) {
+                log::warning(fmt::format("iceoryx: freed {} lock(s) that a killed client had left held", freed));
+            }
+        }
+    }
+    static constexpr std::chrono::milliseconds kReapPeriod{100};
     iox::roudi::IceOryxRouDiComponents components;
     std::optional<iox::roudi::RouDi> roudi;
     std::optional<iox::runtime::PoshRuntimeSingleProcess> runtime;
+    std::jthread reaper;  // declared last: stops first
 };
 
 std::expected<Layout, std::string> plan_layout(const config::Config& config) {

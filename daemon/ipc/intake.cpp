@@ -128,6 +128,10 @@ void Intake::abandon() {
     }
 }
 
+void Intake::close() noexcept {
+    impl_->core.close();
+}
+
 bool Intake::submit_own(std::size_t drive, const rtu::RequestAdu& write) {
     return impl_->core.submit_own(drive, write);
 }

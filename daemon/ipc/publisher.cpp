@@ -8,6 +8,7 @@
 #include "iceoryx_posh/popo/publisher.hpp"
 #include "ipc/convert.hpp"
 #include "ipc/service.hpp"
+#include "master/comm_timeout.hpp"
 #include "sys/posix.hpp"
 
 namespace drivebus::ipc {
@@ -37,7 +38,8 @@ Publisher::Publisher(const config::BusConfig& bus, const Layout& layout)
       control_group_(layout.control_group),
       channels_(std::make_unique<Channels>(bus)),
       last_(bus.drives.size()),
-      health_(bus.drives.size(), master::Health::Unknown) {
+      health_(bus.drives.size(), master::Health::Unknown),
+      comm_timeout_logged_(bus.drives.size(), false) {
     // Before its first poll cycle a drive's snapshot is a shell: names, no values.
     for (std::size_t i = 0; i < bus.drives.size(); ++i) {
         const auto& d = bus.drives[i];
@@ -66,6 +68,7 @@ bool Publisher::snapshot(std::size_t drive, const master::DriveSnapshot& s, cons
     last_[drive].sequence = sequence;
     last_[drive].lease = lease;
     publish(drive);
+    log_comm_timeout(drive, s.comm_timeout);
     const auto before = health_[drive];
     if (before == s.health) {
         return false;
@@ -125,6 +128,12 @@ void Publisher::status(const master::BusStatus& bus, const IpcCounts& counts) {
     auto& out = *sample.value().get();
     fill_status(bus_, bus, health, out);
     shm::assign(out.control_group, control_group_);
+    for (std::size_t i = 0; i < last_.size() && i < out.drives.size(); ++i) {
+        const auto& c = last_[i].comm_timeout;
+        out.drives[i].comm_timeout_state = c.state;
+        out.drives[i].comm_timeout_verdict = c.verdict;
+        out.drives[i].comm_timeout_ms = c.timeout_ms;
+    }
     out.counters.requests_served = counts.served;
     out.counters.queue_rejections += counts.queue_full;  // the bus's own refusals, and the intake's
     out.counters.lease_expiries = counts.lease_expiries;
@@ -202,6 +211,21 @@ std::string setup_problem(const config::DriveConfig& d, master::Health health, c
 }
 
 }  // namespace
+
+// Once per drive while this bus runs: what its own Modbus time-out is, a warning when it is off,
+// may fire between drivebusd's requests, or could not be read or written as configured.
+void Publisher::log_comm_timeout(std::size_t drive, const master::CommTimeoutNote& note) {
+    if (comm_timeout_logged_[drive]) {
+        return;
+    }
+    const auto& d = bus_.drives[drive];
+    const auto line = master::comm_timeout_line(bus_, d, note);
+    if (!line) {
+        return;
+    }
+    comm_timeout_logged_[drive] = true;
+    log::write(line->warning ? log::Level::Warning : log::Level::Info, line->text, {.bus = bus_.name, .drive = d.name});
+}
 
 void Publisher::log_health(std::size_t drive, master::Health before, master::Health now,
                            const master::SetupNote& note) {

@@ -40,6 +40,27 @@ shm::DriveHealth to_shm(master::Health health) noexcept {
     return shm::DriveHealth::Unknown;
 }
 
+shm::CommTimeout to_shm(const master::CommTimeoutNote& note) noexcept {
+    // The two enums list the same cases in the same order.
+    static_assert(static_cast<int>(master::CommTimeoutNote::State::ReadBack) ==
+                  static_cast<int>(shm::CommTimeoutState::ReadBack));
+    static_assert(static_cast<int>(master::CommTimeoutNote::Verdict::MayFire) ==
+                  static_cast<int>(shm::CommTimeoutVerdict::MayFire));
+    shm::CommTimeout out;
+    out.state = static_cast<shm::CommTimeoutState>(note.state);
+    out.verdict = static_cast<shm::CommTimeoutVerdict>(note.verdict);
+    out.exception = note.exception;
+    out.action_valid = note.action_read ? 1 : 0;
+    out.raw = note.raw;
+    out.action = note.action;
+    out.timeout_ms = note.timeout_ms;
+    out.wanted_ms = note.wanted_ms;
+    out.gap_ms =
+        note.gap ? static_cast<std::uint32_t>(std::chrono::duration_cast<std::chrono::milliseconds>(*note.gap).count())
+                 : 0;
+    return out;
+}
+
 void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noexcept {
     out.version = shm::kPayloadVersion;
     out.size = sizeof(shm::DriveSnapshot);
@@ -62,6 +83,7 @@ void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noe
     }
     out.register_count = static_cast<std::uint16_t>(n);
     std::fill(out.registers.begin() + static_cast<std::ptrdiff_t>(n), out.registers.end(), shm::RegisterSample{});
+    out.comm_timeout = to_shm(in.comm_timeout);
 }
 
 void fill_status(const config::BusConfig& bus, const master::BusStatus& in, const std::vector<shm::DriveHealth>& health,
@@ -109,6 +131,7 @@ void fill_response(const master::Finished& f, shm::Response& out) noexcept {
     case master::Refusal::QueueFull: out.status = shm::Status::QueueFull; return;
     case master::Refusal::BusDown: out.status = shm::Status::BusDown; return;
     case master::Refusal::Withdrawn: out.status = shm::Status::Withdrawn; return;
+    case master::Refusal::Expired: out.status = shm::Status::Expired; return;
     case master::Refusal::NotWithdrawn: out.status = shm::Status::Sent; return;
     case master::Refusal::UnknownDrive:
         out.status = shm::Status::Rejected;
@@ -128,6 +151,7 @@ void fill_response(const master::Finished& f, shm::Response& out) noexcept {
     case master::Outcome::BadFrame:
     case master::Outcome::EchoMismatch: out.status = shm::Status::BadFrame; break;
     case master::Outcome::BusDown: out.status = shm::Status::BusDown; break;
+    case master::Outcome::Expired: out.status = shm::Status::Expired; break;
     case master::Outcome::Late:
         out.status = shm::Status::Late;
         out.late_us = static_cast<std::uint32_t>(

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "ipc/lease.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -56,6 +57,7 @@ void LeaseTable::adopt(const HeldLease& lease) {
     l.expires = lease.expires;
     l.state = shm::LeaseState::Held;
     l.fallback_ok = false;
+    changed(l);
 }
 
 bool LeaseTable::held_under(const Lease& l, const LeaseToken& token) {
@@ -79,14 +81,19 @@ LeaseToken LeaseTable::token_for(const LeaseToken& presented) {
 }
 
 LeaseDecision LeaseTable::acquire(std::size_t drive, const LeaseToken& token, const Holder& who, bool take_over,
-                                  rtu::Instant now) {
+                                  rtu::Instant now, std::uint64_t grant) {
     auto& l = leases_.at(drive);
     const bool live = l.state == shm::LeaseState::Held && l.expires > now;
     const bool renewal = live && held_under(l, token);
     if (live && !renewal && !take_over) {
         return {false, false, false, l.holder, {}, 0};
     }
+    const Taken before = l;
     l.expires = now + l.duration;
+    changed(l);
+    if (grant != 0) {
+        l.unsettled.push_back({grant, before, l.epoch});
+    }
     if (renewal) {
         return {true, false, false, l.holder, {}, ms(l.duration)};
     }
@@ -103,7 +110,32 @@ LeaseDecision LeaseTable::renew(std::size_t drive, const LeaseToken& token, rtu:
         return {false, false, false, l.state == shm::LeaseState::Held ? l.holder : Holder{}, {}, 0};
     }
     l.expires = now + l.duration;
+    changed(l);
     return {true, false, false, l.holder, {}, ms(l.duration)};
+}
+
+bool LeaseTable::settle(std::size_t drive, std::uint64_t grant, bool sent) {
+    auto& l = leases_.at(drive);
+    const auto it = std::ranges::find(l.unsettled, grant, &Grant::id);
+    if (it == l.unsettled.end()) {
+        return false;
+    }
+    const Grant g = *it;
+    l.unsettled.erase(it);
+    if (sent) {
+        return false;
+    }
+    if (l.epoch == g.epoch_after) {
+        static_cast<Taken&>(l) = g.before;  // nothing changed it since: exactly as it was
+        return true;
+    }
+    // The next grant was made on top of this one: undoing that one now undoes both.
+    const auto next = std::ranges::find(l.unsettled, g.epoch_after, [](const Grant& n) { return n.before.epoch; });
+    if (next != l.unsettled.end()) {
+        next->before = g.before;
+    }
+    // Otherwise a settled change (a take-over, a release) came after it, and stands.
+    return false;
 }
 
 bool LeaseTable::release(std::size_t drive, const LeaseToken& token) {
@@ -114,6 +146,7 @@ bool LeaseTable::release(std::size_t drive, const LeaseToken& token) {
     l.state = shm::LeaseState::Free;
     l.token = {};
     l.holder = {};
+    changed(l);
     return true;
 }
 
@@ -126,27 +159,49 @@ std::optional<Holder> LeaseTable::other_holder(const LeaseToken& token) const {
     return std::nullopt;
 }
 
+void LeaseTable::end(std::size_t drive, rtu::Instant now) {
+    auto& l = leases_[drive];
+    l.state = shm::LeaseState::Expired;
+    l.token = {};  // nothing renews or releases it any more
+    changed(l);    // a grant still unsettled cannot undo the end
+    l.expired = now;
+    l.fallback_ok = false;
+    ++l.expiries;
+    ++expiries_;
+}
+
 std::vector<Expiry> LeaseTable::expire(rtu::Instant now) {
     std::vector<Expiry> out;
     for (std::size_t i = 0; i < leases_.size(); ++i) {
-        auto& l = leases_[i];
-        if (l.state == shm::LeaseState::Held && l.expires <= now) {
-            l.state = shm::LeaseState::Expired;
-            l.token = {};  // nothing renews or releases it any more
-            l.expired = now;
-            l.fallback_ok = false;
-            ++l.expiries;
-            ++expiries_;
+        if (const auto& l = leases_[i]; l.state == shm::LeaseState::Held && l.expires <= now && l.unsettled.empty()) {
+            end(i, now);
             out.push_back({i, l.holder, l.fallback});
         }
     }
     return out;
 }
 
+std::vector<Expiry> LeaseTable::end_all(rtu::Instant now) {
+    std::vector<Expiry> out;
+    for (std::size_t i = 0; i < leases_.size(); ++i) {
+        if (const auto& l = leases_[i]; l.state == shm::LeaseState::Held) {
+            end(i, now);
+            out.push_back({i, l.holder, l.fallback});
+        }
+    }
+    return out;
+}
+
+void LeaseTable::recovered(std::size_t drive, const Holder& who, rtu::Instant now) {
+    leases_.at(drive).holder = who;
+    end(drive, now);
+}
+
 std::optional<rtu::Instant> LeaseTable::next_deadline() const {
     std::optional<rtu::Instant> next;
     for (const auto& l : leases_) {
-        if (l.state == shm::LeaseState::Held && (!next || l.expires < *next)) {
+        // One with a grant unsettled waits for the bus's word, which comes with a result.
+        if (l.state == shm::LeaseState::Held && l.unsettled.empty() && (!next || l.expires < *next)) {
             next = l.expires;
         }
     }

@@ -14,7 +14,7 @@ void write_note(const std::optional<Note>& note, std::source_location where) {
 }
 
 LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
-    : bus_(bus), table_(bus, std::move(tokens)) {}
+    : bus_(bus), table_(bus, std::move(tokens)), pending_(bus.drives.size(), false) {}
 
 std::string LeasePolicy::name(std::size_t drive) const {
     return bus_.drives.at(drive).name;
@@ -56,7 +56,8 @@ std::vector<Note> LeasePolicy::adopt(const std::vector<CarriedLease>& leases) {
     return notes;
 }
 
-LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now) {
+LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now,
+                                 std::uint64_t grant) {
     LeaseAction a;
     if (drive == kBroadcast) {
         if (const auto other = table_.other_holder(who.token)) {
@@ -65,7 +66,7 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
         }
         return a;
     }
-    const auto d = table_.acquire(drive, who.token, Holder{who.client_name, who.pid}, take_over, now);
+    const auto d = table_.acquire(drive, who.token, Holder{who.client_name, who.pid}, take_over, now, grant);
     if (!d.allowed) {
         a.status = shm::Status::NotPermitted;
         a.holder = d.holder;
@@ -83,6 +84,18 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
     a.token = d.token;
     // A renewal only moves the expiry: subscribers hear of new holders, not of each write.
     a.republish = d.changed;
+    return a;
+}
+
+LeaseAction LeasePolicy::settle(std::size_t drive, std::uint64_t grant, bool sent) {
+    LeaseAction a;
+    if (table_.settle(drive, grant, sent)) {
+        a.republish = true;
+        a.note =
+            Note{log::Level::Info,
+                 fmt::format("{}: a refused write gave back the control lease it had taken or renewed", where(drive)),
+                 name(drive)};
+    }
     return a;
 }
 
@@ -111,32 +124,106 @@ LeaseAction LeasePolicy::release(std::size_t drive, const Origin& who) {
     return a;
 }
 
+std::optional<rtu::RequestAdu> LeasePolicy::fallback_write(std::size_t drive) const {
+    const auto& d = bus_.drives.at(drive);
+    if (d.fallback == config::LeaseFallback::Hold || !d.profile || !d.profile->control) {
+        return std::nullopt;
+    }
+    const auto& control = *d.profile->control;
+    const auto* command = d.profile->find(control.command);
+    const auto word = d.fallback == config::LeaseFallback::Stop ? control.stop : control.freewheel;
+    if (command == nullptr || !command->address || !word) {
+        return std::nullopt;
+    }
+    return rtu::RequestAdu{d.address, rtu::WriteSingleRegister{*command->address, *word}};
+}
+
+FallbackAction LeasePolicy::fallback(std::size_t drive, Note note) {
+    FallbackAction f{drive, std::move(note), fallback_write(drive)};
+    pending_[drive] = f.write.has_value();
+    return f;
+}
+
 std::vector<FallbackAction> LeasePolicy::expire(rtu::Instant now) {
     std::vector<FallbackAction> out;
     for (const auto& e : table_.expire(now)) {
-        const auto& d = bus_.drives.at(e.drive);
-        FallbackAction f;
-        f.drive = e.drive;
-        f.note = Note{log::Level::Warning,
-                      fmt::format("{}: the control lease of {} ran out; fallback: {}", where(e.drive), e.holder.name,
-                                  config::to_string(e.fallback)),
-                      name(e.drive)};
-        if (e.fallback != config::LeaseFallback::Hold && d.profile && d.profile->control) {
-            const auto& control = *d.profile->control;
-            const auto* command = d.profile->find(control.command);
-            const auto word = e.fallback == config::LeaseFallback::Stop ? control.stop : control.freewheel;
-            if (command != nullptr && command->address && word) {
-                f.write = rtu::RequestAdu{d.address, rtu::WriteSingleRegister{*command->address, *word}};
-            }
-        }
-        out.push_back(std::move(f));
+        out.push_back(fallback(e.drive, Note{log::Level::Warning,
+                                             fmt::format("{}: the control lease of {} ran out; fallback: {}",
+                                                         where(e.drive), e.holder.name, config::to_string(e.fallback)),
+                                             name(e.drive)}));
     }
     return out;
+}
+
+std::vector<FallbackAction> LeasePolicy::surrender(rtu::Instant now) {
+    std::vector<FallbackAction> out;
+    for (const auto& e : table_.end_all(now)) {
+        out.push_back(fallback(e.drive, Note{log::Level::Notice,
+                                             fmt::format("{}: drivebusd is stopping: the control lease of {} ends; "
+                                                         "fallback: {}",
+                                                         where(e.drive), e.holder.name, config::to_string(e.fallback)),
+                                             name(e.drive)}));
+    }
+    return out;
+}
+
+Recovery LeasePolicy::recover(const ReadLeaseRecord& record, rtu::Instant now) {
+    Recovery out;
+    for (const auto& problem : record.problems) {
+        out.notes.push_back(
+            {log::Level::Error,
+             fmt::format("bus {}: lease record: {}; applying the fallback of every drive it names", bus_.name, problem),
+             ""});
+    }
+    for (const auto& r : record.leases) {
+        const auto it = std::ranges::find(bus_.drives, r.drive, &config::DriveConfig::name);
+        if (it == bus_.drives.end()) {
+            out.notes.push_back({log::Level::Warning,
+                                 fmt::format("bus {}: the lease of {} on drive {} was held when drivebusd last "
+                                             "stopped, and the drive is no longer configured: no fallback to apply",
+                                             bus_.name, r.holder, r.drive),
+                                 r.drive});
+            continue;
+        }
+        const auto drive = static_cast<std::size_t>(it - bus_.drives.begin());
+        if (table_.status(drive).state == shm::LeaseState::Expired) {
+            continue;  // named twice
+        }
+        table_.recovered(drive, Holder{r.holder, 0}, now);
+        std::string moved;
+        if (r.address && *r.address != it->address) {
+            moved = fmt::format(" (recorded at address {}, configured at {} now)", *r.address, it->address);
+        }
+        out.fallbacks.push_back(fallback(
+            drive, Note{log::Level::Warning,
+                        fmt::format("{}: the lease of {} was held when drivebusd last stopped; applying its fallback: "
+                                    "{}{}",
+                                    where(drive), r.holder, config::to_string(it->fallback), moved),
+                        r.drive}));
+    }
+    return out;
+}
+
+std::vector<RecordedLease> LeasePolicy::record() const {
+    std::vector<RecordedLease> out;
+    for (std::size_t d = 0; d < bus_.drives.size(); ++d) {
+        const auto s = table_.status(d);
+        if (s.state == shm::LeaseState::Held || pending_[d]) {
+            const auto& drive = bus_.drives[d];
+            out.push_back({drive.name, drive.address, drive.fallback, std::string(shm::view(s.holder))});
+        }
+    }
+    return out;
+}
+
+bool LeasePolicy::fallbacks_pending() const {
+    return std::ranges::find(pending_, true) != pending_.end();
 }
 
 LeaseAction LeasePolicy::fallback_done(std::size_t drive, master::Outcome outcome, bool refused) {
     const bool ok = !refused && outcome == master::Outcome::Ok;
     table_.fallback_result(drive, ok);
+    pending_.at(drive) = false;
     LeaseAction a;
     a.republish = true;
     if (!ok) {

@@ -46,6 +46,19 @@ void BusEngine::line_up(rtu::Instant now) {
     quiet_after_transmission_ = false;
     scheduler_.line_up(now);
     ++status_.sequence;
+    // A drive whose set-up or absence the line's loss hid shows it again; one that was online
+    // shows it with its next reply, not before.
+    for (std::size_t d = 0; d < scheduler_.drive_count(); ++d) {
+        if (const auto h = scheduler_.health(d); h != Health::Online && h != Health::Unknown) {
+            publish(d);
+        }
+    }
+}
+
+void BusEngine::publish(std::size_t drive) {
+    if (callbacks_.snapshot) {
+        callbacks_.snapshot(scheduler_.snapshot(drive));
+    }
 }
 
 void BusEngine::line_down(rtu::Instant now) {
@@ -63,6 +76,7 @@ void BusEngine::line_down(rtu::Instant now) {
         Result down;
         down.outcome = Outcome::BusDown;
         down.finished = now;
+        down.unsent = true;
         const Job job = std::move(*after_probe_);
         after_probe_.reset();
         complete(job, down, now);
@@ -70,15 +84,29 @@ void BusEngine::line_down(rtu::Instant now) {
     transmitting_ = false;
     scheduler_.line_down(now);
     // Waiting client requests are answered now, not sent whenever the line comes back.
+    fail_client_jobs(now);
+    ++status_.sequence;
+    // No drive is online on a line that is down.
+    for (std::size_t d = 0; d < scheduler_.drive_count(); ++d) {
+        publish(d);
+    }
+}
+
+void BusEngine::wind_down(rtu::Instant now) {
+    scheduler_.wind_down();
+    fail_client_jobs(now);
+}
+
+void BusEngine::fail_client_jobs(rtu::Instant now) {
     for (const Job& job : scheduler_.take_client_jobs()) {
         Result down;
         down.outcome = Outcome::BusDown;
         down.finished = now;
+        down.unsent = true;
         if (callbacks_.client_result) {
             callbacks_.client_result(job.correlation, down);
         }
     }
-    ++status_.sequence;
 }
 
 rtu::Instant BusEngine::line_free_at() const noexcept {
@@ -146,6 +174,7 @@ void BusEngine::on_time(rtu::Instant now) {
         }
     }
     finish_if_done(now);
+    expire_clients(now);
 }
 
 void BusEngine::take_events(rtu::Instant now) {
@@ -294,9 +323,7 @@ void BusEngine::complete(const Job& job, const Result& result, rtu::Instant now)
         callbacks_.client_result(job.correlation, result);
     }
     if (const auto drive = scheduler_.complete(job, result, now)) {
-        if (callbacks_.snapshot) {
-            callbacks_.snapshot(scheduler_.snapshot(*drive));
-        }
+        publish(*drive);
     }
 }
 

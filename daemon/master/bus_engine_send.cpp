@@ -108,11 +108,15 @@ std::optional<rtu::Instant> BusEngine::next_send_at() const {
 }
 
 std::optional<Job> BusEngine::next_job(rtu::Instant now) {
+    expire_clients(now);
     if (after_probe_) {
         // Its probe was answered: nothing it could be confused with is owed any more.
         std::optional<Job> job = std::move(after_probe_);
         after_probe_.reset();
-        return job;
+        if (!job->deadline || *job->deadline > now) {
+            return job;
+        }
+        report_expired(*job, now);  // the probe took its time
     }
     auto job = scheduler_.next(now, !echo_.decided());
     if (!job) {
@@ -131,6 +135,23 @@ std::optional<Job> BusEngine::next_job(rtu::Instant now) {
     probing_ = true;
     ++status_.counters.sync_probes;
     return sync;
+}
+
+// Client requests whose deadline has passed are answered now and never sent.
+void BusEngine::expire_clients(rtu::Instant now) {
+    for (const Job& job : scheduler_.expire(now)) {
+        report_expired(job, now);
+    }
+}
+
+void BusEngine::report_expired(const Job& job, rtu::Instant now) {
+    Result expired;
+    expired.outcome = Outcome::Expired;
+    expired.unsent = true;
+    expired.finished = now;
+    if (callbacks_.client_result) {
+        callbacks_.client_result(job.correlation, expired);
+    }
 }
 
 std::optional<rtu::Request> BusEngine::probe_for(const Job& job, rtu::Instant now) {
@@ -168,6 +189,11 @@ std::optional<rtu::Instant> BusEngine::next_wakeup() const {
         consider(transaction_->deadline());
     }
     consider(next_send_at());
+    // A waiting client request's deadline: answered then, even while the line is busy.
+    consider(scheduler_.next_deadline());
+    if (after_probe_) {
+        consider(after_probe_->deadline);
+    }
     return wake;
 }
 

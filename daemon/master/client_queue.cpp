@@ -14,6 +14,7 @@ std::expected<void, SubmitError> Scheduler::submit(ClientRequest request) {
     job.client = request.client;
     job.correlation = request.correlation;
     job.request = request.request;
+    job.deadline = request.deadline;
     if (request.request.address == rtu::kBroadcastAddress) {
         job.drive = kNoDrive;
     } else if (request.probe) {
@@ -100,6 +101,40 @@ bool Scheduler::withdraw(std::uint64_t correlation) {
         }
     }
     return false;
+}
+
+const std::vector<Job>& Scheduler::expire(rtu::Instant now) {
+    expired_.clear();
+    for (auto* queues : {&writes_, &reads_}) {
+        for (auto it = queues->begin(); it != queues->end();) {
+            auto& queue = it->second;
+            const auto gone = std::ranges::remove_if(queue, [&](const Job& job) {
+                if (!job.deadline || *job.deadline > now) {
+                    return false;
+                }
+                expired_.push_back(job);
+                return true;
+            });
+            queued_ -= static_cast<std::size_t>(gone.size());
+            queue.erase(gone.begin(), gone.end());
+            it = queue.empty() ? queues->erase(it) : std::next(it);
+        }
+    }
+    return expired_;
+}
+
+std::optional<rtu::Instant> Scheduler::next_deadline() const {
+    std::optional<rtu::Instant> next;
+    for (const auto* queues : {&writes_, &reads_}) {
+        for (const auto& [client, queue] : *queues) {
+            for (const Job& job : queue) {
+                if (job.deadline && (!next || *job.deadline < *next)) {
+                    next = job.deadline;
+                }
+            }
+        }
+    }
+    return next;
 }
 
 std::vector<Job> Scheduler::take_client_jobs() {

@@ -28,6 +28,38 @@ std::optional<Job> Scheduler::next_setup(rtu::Instant now) {
     return std::nullopt;
 }
 
+// The drive's own Modbus time-out, read (and written when configured) once it answers: after
+// its set-up, before its polls; it holds nothing back.
+std::optional<Job> Scheduler::next_check() {
+    for (std::size_t d = 0; d < drives_.size(); ++d) {
+        Drive& drive = drives_[d];
+        if (drive.health == Health::Absent) {
+            continue;
+        }
+        if (const auto request = drive.comm.next()) {
+            Job job;
+            job.kind = JobKind::Check;
+            job.drive = d;
+            job.request = *request;
+            return job;
+        }
+    }
+    return std::nullopt;
+}
+
+std::optional<std::size_t> Scheduler::check_step(const Job& job, const Result& result) {
+    Drive& drive = drives_[job.drive];
+    if (result.outcome == Outcome::BusDown) {
+        drive.comm.restart();
+        return std::nullopt;
+    }
+    if (!drive.comm.take(result) || !drive.groups.empty()) {
+        return std::nullopt;  // its next poll cycle publishes the note (a snapshot before it would hold no values)
+    }
+    ++drive.sequence;  // nothing polls it: published now
+    return job.drive;
+}
+
 void Scheduler::setup_failed(std::size_t drive, rtu::Instant now, SetupState state) {
     Drive& d = drives_[drive];
     d.health = state == SetupState::AwaitingReset ? Health::AwaitingReset : Health::Unconfigured;

@@ -27,6 +27,7 @@ std::optional<std::uint16_t> keep_alive_register(const DrivePlan& drive) {
 }  // namespace
 
 Scheduler::Scheduler(const BusPlan& bus, rtu::Instant start) : bus_(bus) {
+    expired_.reserve(bus.queue_limit);
     for (const auto& d : bus.drives) {
         Drive drive;
         drive.config = &d;
@@ -40,6 +41,7 @@ Scheduler::Scheduler(const BusPlan& bus, rtu::Instant start) : bus_(bus) {
         drive.setup = SetupPlan(d.address, *d.profile, block_setups(d));
         drive.setup_done = drive.setup.empty();
         drive.blocks_confirmed = drive.setup.empty();
+        drive.comm = CommTimeoutCheck(d.address, *d.profile, comm_timeout_raw(d), longest_request_gap(bus, d));
         if (const auto& control = d.profile->control; !drive.setup.empty() && control) {
             const RegisterInfo* status = d.profile->find(std::string_view(control->status));
             const auto bit = control->status_bits.find("fault");
@@ -64,6 +66,9 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
     if (!line_up_) {
         return std::nullopt;
     }
+    if (fallbacks_only_) {
+        return next_fallback();
+    }
     if (reads_only) {
         if (auto job = next_client_read()) {
             return job;
@@ -73,6 +78,9 @@ std::optional<Job> Scheduler::next(rtu::Instant now, bool reads_only) {
             return job;
         }
         if (auto job = next_setup(now)) {
+            return job;
+        }
+        if (auto job = next_check()) {
             return job;
         }
         if (auto job = take_client({&writes_})) {
@@ -219,6 +227,9 @@ std::optional<rtu::Instant> Scheduler::next_due() const {
         return rtu::Instant::min();
     }
     for (const Drive& drive : drives_) {
+        if (drive.comm.running() && drive.health != Health::Absent) {
+            return rtu::Instant::min();
+        }
         if (!drive.setup_done && drive.health != Health::Absent) {
             consider(drive.setup_retry);  // at once, or when a failed set-up is tried again
             continue;
@@ -284,6 +295,10 @@ std::optional<std::size_t> Scheduler::complete(const Job& job, const Result& res
         const auto changed = setup_step(job, result, now);
         return changed ? changed : back;
     }
+    if (job.kind == JobKind::Check) {
+        const auto finished = check_step(job, result);
+        return finished ? finished : back;
+    }
     if (job.kind != JobKind::Poll || job.group >= drive.groups.size()) {
         return back;
     }
@@ -323,6 +338,7 @@ void Scheduler::mark_present(std::size_t drive, rtu::Instant now) {
             d.blocks_confirmed = d.setup.empty();
             d.setup_retry = now;
             d.setup_backoff = {};
+            d.comm.restart();  // maybe another drive, or one reset to its factory settings
             for (Group& g : d.groups) {
                 g.next_due = now;
                 g.cursor.reset();
@@ -378,11 +394,13 @@ void Scheduler::snapshot(std::size_t drive, DriveSnapshot& s) const noexcept {
     s.name = d.config->name;
     s.address = d.config->address;
     s.profile = d.config->profile->type;
-    s.health = d.health;
+    // On a line that is down nothing answers: what the drive was is not what it is.
+    s.health = line_up_ ? d.health : Health::Unknown;
     s.registers = d.values;
     s.counters = d.counters;
     s.sequence = d.sequence;
     s.setup = d.health == Health::Unconfigured || d.health == Health::AwaitingReset ? d.setup.note() : SetupNote{};
+    s.comm_timeout = d.comm.note();
 }
 
 }  // namespace drivebus::master

@@ -16,6 +16,7 @@ std::string_view to_string(Outcome outcome) noexcept {
     case Outcome::EchoMismatch: return "echo mismatch";
     case Outcome::BusDown: return "bus down";
     case Outcome::Late: return "late reply";
+    case Outcome::Expired: return "expired";
     }
     return "unknown";
 }
@@ -71,9 +72,9 @@ Transaction::Verdict Transaction::on_frame(const rtu::Frame& frame) {
         spoiled_ = true;  // perhaps a stale reply of another shape: this one may still come
         return Verdict::Malformed;
     }
-    result_ = Result{};
-    result_->response = reply->pdu;
-    result_->after_timeout = timeouts_ > 0;
+    // Made whole in one expression: assigning the response into a fresh Result makes g++ 14
+    // see the empty optional's variant as "maybe uninitialized".
+    result_.emplace(Result{.response = reply->pdu, .after_timeout = timeouts_ > 0});
     if (first_timeout_tx_end_) {
         result_->possible_latency = frame.first - *first_timeout_tx_end_;
     }

@@ -63,6 +63,8 @@ enum class ErrorKind : std::uint8_t {
     // Not answered in time, and it had reached the wire when given up: its outcome is unknown
     // (a write may have been applied: read it back).
     OutcomeUnknown,
+    // Its deadline (WriteOptions::deadline) passed before it reached the wire: never sent.
+    Expired,
 };
 
 [[nodiscard]] DRIVEBUS_API std::string_view to_string(ErrorKind kind) noexcept;
@@ -103,6 +105,9 @@ struct Identity {
 
 struct WriteOptions {
     bool take_over = false;  // take the control lease from another client
+    // How long from the call the write may still go out: not on the wire by then, drivebusd
+    // drops it (Expired: never sent, never late). None: the request time-out alone bounds it.
+    std::optional<Milliseconds> deadline;
 };
 
 // A callback registration; unregisters when destroyed.
@@ -225,6 +230,9 @@ public:
     [[nodiscard]] std::expected<void, Error> keep_alive() const;
     // Gives up the control lease without the fallback.
     [[nodiscard]] std::expected<void, Error> release_control() const;
+    // Whether this Bus holds a token for the drive's lease: one of its writes took it (directly
+    // or through an indirect block). It may have run out or been taken over since.
+    [[nodiscard]] bool holds_control() const;
 
 private:
     Drive(std::shared_ptr<Bus::Impl> bus, std::string name, std::uint8_t address,

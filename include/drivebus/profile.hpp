@@ -104,6 +104,20 @@ struct ControlInfo {
     std::map<std::string, unsigned> status_bits;
 };
 
+// The drive's own guard against a master that goes quiet (the ATV21's Modbus time-out, F803):
+// the register that sets it, what one count of it is, the value that turns it off, and the
+// register that says what the drive does when it fires (F603). drivebusd reads them when the
+// drive comes online and warns when the guard is off or would fire between its requests.
+struct SafetyInfo {
+    std::string comm_timeout;                       // the time-out register ("F803"); empty: none named
+    double comm_timeout_seconds = 1.0;              // seconds per raw count (comm_timeout_unit)
+    std::optional<std::uint16_t> comm_timeout_off;  // the raw value that turns it off ("0: disabled")
+    std::string comm_fault_action;                  // what the drive does when it fires ("F603"); empty: none
+
+    // A raw time-out in milliseconds (0 for the value that turns it off).
+    [[nodiscard]] std::uint32_t milliseconds(std::uint16_t raw) const noexcept;
+};
+
 struct Profile {
     int schema = 1;
     std::string type;   // "atv21"
@@ -123,6 +137,7 @@ struct Profile {
     std::vector<RegisterInfo> registers;
     std::vector<FaultCode> fault_codes;
     std::optional<ControlInfo> control;
+    std::optional<SafetyInfo> safety;
 
     // Look-ups. Names match case-insensitively ("fa01" finds FA01).
     [[nodiscard]] const RegisterInfo* find(std::string_view name) const noexcept;
@@ -130,6 +145,11 @@ struct Profile {
     [[nodiscard]] const FaultCode* fault(std::uint16_t code) const noexcept;
     [[nodiscard]] const IndirectBlock* block(std::uint8_t function) const noexcept;
 };
+
+// The register a frequency in Hz is written to: the profile's [control] reference, when the
+// profile gives it the unit "Hz" (and so its scale). Otherwise one line that names the profile
+// and the register, and says why: a number of Hz is never written as a raw word by guess.
+[[nodiscard]] std::expected<const RegisterInfo*, std::string> frequency_reference(const Profile& profile);
 
 // One line that says where and what: "atv21.toml: register FA01: max 70000 is above 65535".
 struct ProfileError {
@@ -142,7 +162,8 @@ struct ProfileError {
 [[nodiscard]] std::expected<Profile, ProfileError> load_profile(const std::filesystem::path& file);
 
 // Where profiles are looked for by type name, in order: $DRIVEBUS_PROFILE_DIR, the source
-// tree's profiles/ (for builds run from the tree), the installed data directory.
+// tree's profiles/ (for builds run from the tree), the site's directory (/etc/drivebus/profiles
+// for an install in /usr), the installed data directory.
 [[nodiscard]] std::vector<std::filesystem::path> profile_search_path();
 // Finds and loads "<type>.toml" along the search path.
 [[nodiscard]] std::expected<Profile, ProfileError> load_profile_by_type(std::string_view type);

@@ -19,7 +19,7 @@
 
 namespace drivebus::shm {
 
-inline constexpr std::uint32_t kPayloadVersion = 4;
+inline constexpr std::uint32_t kPayloadVersion = 5;
 inline constexpr std::string_view kService = "drivebus";
 inline constexpr std::string_view kStatusEvent = "status";
 inline constexpr std::string_view kRequestEvent = "requests";
@@ -53,7 +53,7 @@ void assign(std::array<char, N>& text, std::string_view from) noexcept {
 using LeaseToken = std::array<std::uint64_t, 2>;
 
 enum class DriveHealth : std::uint8_t {
-    Unknown = 0,  // not polled yet
+    Unknown = 0,  // not polled yet, or the line is down (nothing can answer)
     Online = 1,
     Absent = 2,         // stopped answering; probed with back-off
     Unconfigured = 3,   // answers, but its set-up failed, did not read back, or its read block
@@ -105,6 +105,37 @@ struct LeaseStatus {
     std::uint64_t expiries = 0;   // how often it has expired since drivebusd started
 };
 
+// The drive's own Modbus time-out (its profile's [safety]: ATV21 F803, and F603 for what it does
+// when it fires), as drivebusd found it when the drive last came online.
+enum class CommTimeoutState : std::uint8_t {
+    Unknown = 0,       // the profile names none, or not read yet
+    Read = 1,          // `timeout_ms` is what the drive holds
+    Written = 2,       // drivebusd wrote the configured `wanted_ms` (comm_timeout) and read it back
+    ReadRefused = 3,   // it could not be read: `exception` (0: no valid reply)
+    WriteRefused = 4,  // writing `wanted_ms` got `exception` (0: no valid reply); `timeout_ms` still held
+    ReadBack = 5,      // written `wanted_ms`, it reads back `timeout_ms`
+};
+enum class CommTimeoutVerdict : std::uint8_t {
+    None = 0,     // not known
+    Fine = 1,     // on, and longer than `gap_ms`
+    Off = 2,      // off: if the line or drivebusd dies, the drive runs on at its last command
+    MayFire = 3,  // not longer than `gap_ms` (or nothing bounds it): the drive may trip on a healthy line
+};
+
+struct CommTimeout {
+    CommTimeoutState state = CommTimeoutState::Unknown;
+    CommTimeoutVerdict verdict = CommTimeoutVerdict::None;
+    std::uint8_t exception = 0;
+    std::uint8_t action_valid = 0;  // `action` was read
+    std::uint16_t raw = 0;          // the time-out register as read
+    std::uint16_t action = 0;       // the fault behaviour register as read (ATV21: F603)
+    std::uint32_t timeout_ms = 0;   // `raw` in ms; 0: off
+    std::uint32_t wanted_ms = 0;    // the configured comm_timeout; 0: none
+    // The longest drivebusd may leave between two requests to the drive; 0: nothing bounds it.
+    std::uint32_t gap_ms = 0;
+    std::uint32_t reserved = 0;
+};
+
 struct DriveSnapshot {
     std::uint32_t version = kPayloadVersion;
     std::uint32_t size = 0;      // sizeof(DriveSnapshot) of the writer
@@ -120,6 +151,7 @@ struct DriveSnapshot {
     DriveCounters counters;
     LeaseStatus lease;
     std::array<RegisterSample, kMaxSnapshotRegisters> registers{};  // sorted by address
+    CommTimeout comm_timeout;
 
     [[nodiscard]] const RegisterSample* find(std::uint16_t reg) const noexcept {
         for (std::size_t i = 0; i < register_count && i < registers.size(); ++i) {
@@ -159,6 +191,7 @@ struct BusCounters {
     std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
     std::uint64_t held_replies = 0;  // replies the kernel handed over late, still complete in time
     std::uint64_t sync_probes = 0;   // requests sent to prove a slave in step after a reply went missing
+    std::uint64_t mute_reopens = 0;  // the port reopened: open, and every drive silent for mute_reopen
 };
 
 // Every counter of BusCounters, in its order, for code that maps them by name (X(name) each):
@@ -185,7 +218,8 @@ struct BusCounters {
     X(lease_expiries) \
     X(late_replies) \
     X(held_replies) \
-    X(sync_probes)
+    X(sync_probes) \
+    X(mute_reopens)
 // clang-format on
 #define DRIVEBUS_SHM_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) == sizeof(std::uint64_t) * (0 DRIVEBUS_SHM_BUS_COUNTERS(DRIVEBUS_SHM_COUNT_ONE)),
@@ -197,8 +231,12 @@ struct DriveEntry {
     std::array<char, kProfileSize> profile{};
     std::uint8_t address = 0;
     DriveHealth health = DriveHealth::Unknown;
-    std::array<std::uint8_t, 6> reserved{};
+    // Its snapshot's comm_timeout, for a list of the drives.
+    CommTimeoutState comm_timeout_state = CommTimeoutState::Unknown;
+    CommTimeoutVerdict comm_timeout_verdict = CommTimeoutVerdict::None;
+    std::uint32_t comm_timeout_ms = 0;
 };
+static_assert(sizeof(DriveEntry) == 56, "DriveEntry keeps its size (its last six bytes were reserved)");
 
 struct BusStatus {
     std::uint32_t version = kPayloadVersion;
@@ -257,6 +295,9 @@ struct Request {
     std::array<char, kNameSize> drive{};
     std::array<char, kNameSize> client_name{};  // for logs: "pump-control[1234]"
     std::array<std::uint16_t, kMaxWriteWords> values{};
+    // Not on the wire by this CLOCK_MONOTONIC time (ns), the request is dropped and answered
+    // Expired, never sent late; 0: none. Past already when drivebusd takes it: Expired at once.
+    std::int64_t deadline_ns = 0;
 };
 
 enum class Status : std::uint8_t {
@@ -271,6 +312,7 @@ enum class Status : std::uint8_t {
     Late = 8,          // every attempt timed out and the drive answered after it: see `late_us`
     Withdrawn = 9,     // withdrawn (RequestKind::Withdraw) before it reached the wire: never sent
     Sent = 10,         // to a Withdraw: the request had reached the wire; its outcome is unknown
+    Expired = 11,      // its deadline (Request::deadline_ns) passed before it reached the wire: never sent
 };
 
 enum class RejectReason : std::uint8_t {
@@ -341,6 +383,7 @@ template <typename T>
     case Status::Late: return "late reply";
     case Status::Withdrawn: return "withdrawn";
     case Status::Sent: return "sent";
+    case Status::Expired: return "expired";
     }
     return "unknown";
 }
@@ -372,6 +415,26 @@ template <typename T>
     case DriveHealth::Absent: return "absent";
     case DriveHealth::Unconfigured: return "unconfigured";
     case DriveHealth::AwaitingReset: return "awaiting reset";
+    }
+    return "unknown";
+}
+[[nodiscard]] constexpr std::string_view to_string(CommTimeoutState state) noexcept {
+    switch (state) {
+    case CommTimeoutState::Unknown: return "unknown";
+    case CommTimeoutState::Read: return "read";
+    case CommTimeoutState::Written: return "written";
+    case CommTimeoutState::ReadRefused: return "read refused";
+    case CommTimeoutState::WriteRefused: return "write refused";
+    case CommTimeoutState::ReadBack: return "read back otherwise";
+    }
+    return "unknown";
+}
+[[nodiscard]] constexpr std::string_view to_string(CommTimeoutVerdict verdict) noexcept {
+    switch (verdict) {
+    case CommTimeoutVerdict::None: return "unknown";
+    case CommTimeoutVerdict::Fine: return "fine";
+    case CommTimeoutVerdict::Off: return "off";
+    case CommTimeoutVerdict::MayFire: return "may fire";
     }
     return "unknown";
 }

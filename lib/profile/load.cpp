@@ -12,6 +12,9 @@
 #ifndef DRIVEBUS_SOURCE_PROFILE_DIR
 #error "DRIVEBUS_SOURCE_PROFILE_DIR must be defined by the build"
 #endif
+#ifndef DRIVEBUS_SITE_PROFILE_DIR
+#error "DRIVEBUS_SITE_PROFILE_DIR must be defined by the build"
+#endif
 #ifndef DRIVEBUS_INSTALLED_PROFILE_DIR
 #error "DRIVEBUS_INSTALLED_PROFILE_DIR must be defined by the build"
 #endif
@@ -44,6 +47,9 @@ std::vector<fs::path> profile_search_path() {
         dirs.emplace_back(dir);
     }
     dirs.emplace_back(DRIVEBUS_SOURCE_PROFILE_DIR);
+    // The site's profiles: one place that drivebusd, its clients and a user's shell all read,
+    // so that a name, unit or scale means the same to each of them.
+    dirs.emplace_back(DRIVEBUS_SITE_PROFILE_DIR);
     dirs.emplace_back(DRIVEBUS_INSTALLED_PROFILE_DIR);
     return dirs;
 }

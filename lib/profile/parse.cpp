@@ -36,8 +36,8 @@ ProfileError syntax_error(std::string_view source, const toml::parse_error& e) {
 
 void read_tables(const toml::table& root, Errors& errors, Profile& profile) {
     Section s(root, "", errors);
-    s.allow_only(
-        {"schema", "drive", "functions", "identification", "indirect_block", "register", "fault_code", "control"});
+    s.allow_only({"schema", "drive", "functions", "identification", "indirect_block", "register", "fault_code",
+                  "control", "safety"});
     const auto schema = s.integer("schema", std::numeric_limits<std::int64_t>::min(),
                                   std::numeric_limits<std::int64_t>::max(), Need::Required);
     if (schema && *schema != 1) {
@@ -57,6 +57,9 @@ void read_tables(const toml::table& root, Errors& errors, Profile& profile) {
     }
     if (const auto* control = s.table("control")) {
         profile_detail::read_control(*control, errors, profile.control.emplace());
+    }
+    if (const auto* safety = s.table("safety")) {
+        profile_detail::read_safety(*safety, errors, profile.safety.emplace());
     }
     const auto registers = s.tables("register");
     for (std::size_t i = 0; i < registers.size(); ++i) {
@@ -180,6 +183,7 @@ std::expected<Profile, ProfileError> parse_profile(std::string_view text, std::s
         check_fault_codes(profile, errors);
         check_blocks(profile, errors);
         check_control(profile, errors);
+        profile_detail::check_safety(profile, errors);
     }
     if (errors.any()) {
         return std::unexpected(errors.error());

@@ -16,6 +16,9 @@ void read_drive(const toml::table& table, Errors& errors, Profile& profile);
 void read_functions(const toml::table& table, Errors& errors, FunctionSupport& functions);
 void read_control(const toml::table& table, Errors& errors, ControlInfo& control);
 void read_identification(const toml::table& table, Errors& errors, Identification& identification);
+void read_safety(const toml::table& table, Errors& errors, SafetyInfo& safety);
+// The registers [safety] names, against the profile's (parse_safety.cpp).
+void check_safety(Profile& profile, Errors& errors);
 // `index` counts from 0 and names an entry in errors until its name (or code) is known.
 [[nodiscard]] RegisterInfo read_register(const toml::table& table, std::size_t index, Errors& errors);
 [[nodiscard]] IndirectBlock read_block(const toml::table& table, std::size_t index, Errors& errors);

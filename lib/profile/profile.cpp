@@ -72,6 +72,24 @@ const RegisterInfo* Profile::find(std::uint16_t address) const noexcept {
     return it == registers.end() ? nullptr : &*it;
 }
 
+std::expected<const RegisterInfo*, std::string> frequency_reference(const Profile& profile) {
+    if (!profile.control || profile.control->reference.empty()) {
+        return std::unexpected("the " + profile.type + " profile names no frequency reference register");
+    }
+    const auto* r = profile.find(profile.control->reference);
+    if (r == nullptr || !r->address) {
+        return std::unexpected("the " + profile.type + " profile's frequency reference " + profile.control->reference +
+                               " has no Modbus address");
+    }
+    if (r->unit != "Hz") {
+        return std::unexpected("the " + profile.type + " profile gives its frequency reference " + r->name +
+                               (r->unit.empty() ? " no unit and scale" : " the unit '" + r->unit + "'") +
+                               ", not Hz: a frequency cannot be converted (write " + r->name +
+                               " as a raw word if its scaling is known)");
+    }
+    return r;
+}
+
 const FaultCode* Profile::fault(std::uint16_t code) const noexcept {
     const auto it = std::ranges::find(fault_codes, code, &FaultCode::code);
     return it == fault_codes.end() ? nullptr : &*it;

@@ -180,8 +180,7 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
 
 std::expected<std::unique_ptr<Direction>, DirectionError> make_gpio_direction(const GpioOptions& options) {
     if (gpio_chips().empty()) {
-        return std::unexpected(
-            DirectionError{describe(options) + ": no such GPIO chip (no /dev/gpiochip* on this machine)", true});
+        return std::unexpected(DirectionError{describe(options) + ": " + no_such_chip({}), true});
     }
     auto line = open_gpio_line(options);
     if (!line) {

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <utility>
 
+#include "duration/duration.hpp"
+
 namespace drivebus::mqtt {
 namespace {
 
@@ -205,8 +207,27 @@ std::expected<Command, CommandError> parse_command(std::string_view payload, std
                 return fail(v.error());
             }
             c.verb = *v;
+        } else if (key == "not_after" || key == "sent_at") {
+            auto t = parse_time(value);
+            if (!t) {
+                return fail(key + ": " + t.error());
+            }
+            (key == "not_after" ? c.freshness.not_after : c.freshness.sent_at) = *t;
+        } else if (key == "max_age") {
+            if (!value.is_string()) {
+                return fail("max_age: a duration such as \"2s\" or \"500ms\"");
+            }
+            const auto d = parse_duration(value.get_ref<const std::string&>());
+            if (!d) {
+                return fail("max_age: " + d.error());
+            }
+            if (*d <= std::chrono::nanoseconds::zero() || *d > std::chrono::hours(24)) {
+                return fail("max_age: must be more than 0 and at most 24 h");
+            }
+            c.freshness.max_age = *d;
         } else {
-            return fail("unknown key '" + key.substr(0, 32) + "' (id, registers, frequency, verb)");
+            return fail("unknown key '" + key.substr(0, 32) +
+                        "' (id, registers, frequency, verb, not_after, max_age, sent_at)");
         }
     }
     if (c.registers.empty() && !c.frequency && c.verb == Verb::None) {
@@ -228,10 +249,14 @@ std::expected<std::vector<Action>, std::string> plan(const Command& command, con
         actions.push_back(std::move(*a));
     }
     if (command.frequency) {
-        if (profile == nullptr || !profile->control || profile->control->reference.empty()) {
-            return std::unexpected("frequency: the drive's profile names no reference register");
+        if (profile == nullptr) {
+            return std::unexpected("frequency: the drive has no profile");
         }
-        auto a = write_of({.name = profile->control->reference, .value = command.frequency, .raw = {}}, profile);
+        const auto reference = frequency_reference(*profile);
+        if (!reference) {
+            return std::unexpected("frequency: " + reference.error());
+        }
+        auto a = write_of({.name = (*reference)->name, .value = command.frequency, .raw = {}}, profile);
         if (!a) {
             return std::unexpected("frequency: " + a.error());
         }

@@ -121,7 +121,7 @@ BrokerConfig read_broker(const toml::table& table, Errors& errors) {
 
 Limits read_limits(const toml::table& table, Errors& errors) {
     Section s(table, "limits", errors);
-    s.allow_only({"command_queue", "max_payload", "results_in_flight"});
+    s.allow_only({"command_queue", "max_payload", "results_in_flight", "max_command_age"});
     Limits l;
     if (auto v = s.integer("command_queue", 1, 4096)) {
         l.command_queue = static_cast<std::size_t>(*v);
@@ -131,6 +131,9 @@ Limits read_limits(const toml::table& table, Errors& errors) {
     }
     if (auto v = s.integer("results_in_flight", 1, 65535)) {
         l.results_in_flight = static_cast<std::size_t>(*v);
+    }
+    if (auto d = duration(s, "max_command_age", std::chrono::milliseconds(100), std::chrono::hours(24))) {
+        l.max_command_age = *d;
     }
     return l;
 }

@@ -116,6 +116,10 @@ Json drive_state(const shm::DriveSnapshot& snapshot, const Profile* profile) {
         j["altivar"] = altivar_json(*profile, snapshot);
     }
     j["lease"] = lease_json(snapshot.lease);
+    const auto& timeout = snapshot.comm_timeout;  // the drive's own Modbus time-out (ATV21 F803)
+    j["comm_timeout"] = {{"state", shm::to_string(timeout.state)},
+                         {"verdict", shm::to_string(timeout.verdict)},
+                         {"timeout_ms", timeout.timeout_ms}};
     Json c = Json::object();
     c["requests"] = snapshot.counters.requests;
     c["replies"] = snapshot.counters.replies;

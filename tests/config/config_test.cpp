@@ -1068,6 +1068,22 @@ TEST(Reject, WriteBlock) {
                  {"drive 'fan'", "write_block is set, but Altivar 58 has no indirect write block"}));
 }
 
+TEST(Drive, CommTimeoutIsWholeStepsOfTheProfilesTimeOutRegister) {
+    EXPECT_FALSE(parsed(kValid).buses.at(0).drives.at(0).comm_timeout.has_value());
+    EXPECT_EQ(parsed(with_drive(R"(comm_timeout = "2s")")).buses.at(0).drives.at(0).comm_timeout, Duration(2s));
+    EXPECT_EQ(parsed(with_drive(R"(comm_timeout = "100s")")).buses.at(0).drives.at(0).comm_timeout, Duration(100s));
+    EXPECT_TRUE(rejected(with_drive(R"(comm_timeout = "1500ms")"),
+                         {"drive 'pump'",
+                          "comm_timeout 1500ms is not a whole number of F803's steps of 1s "
+                          "between 1s and 100s"}));
+    EXPECT_TRUE(rejected(with_drive(R"(comm_timeout = "101s")"), {"comm_timeout 101s"}));
+    EXPECT_TRUE(rejected(with_drive(R"(comm_timeout = "0s")"), {"comm_timeout"}));
+    EXPECT_TRUE(rejected(with_drive("comm_timeout = 2"), {"comm_timeout"}));
+    EXPECT_TRUE(
+        rejected(edited(kFan, "profile = \"atv58\"\n", "profile = \"atv58\"\ncomm_timeout = \"2s\"\n"),
+                 {"drive 'fan'", "comm_timeout is set, but profile 'atv58' names no Modbus time-out register"}));
+}
+
 TEST(Warnings, ALeaseThatCanOnlyHold) {
     // The ATV58 profile gives no stop or freewheel word: a dead application leaves it running.
     const auto fan = start_up_warnings(parsed(kFan));

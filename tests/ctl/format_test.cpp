@@ -146,6 +146,7 @@ TEST(CtlFormat, ExitCodesByErrorKind) {
     EXPECT_EQ(exit_code(ErrorKind::Withdrawn), 7);
     EXPECT_EQ(exit_code(ErrorKind::OutcomeUnknown), 8);
     EXPECT_EQ(exit_code(ErrorKind::NoReply), 8) << "answered neither the request nor its withdrawal: unknown";
+    EXPECT_EQ(exit_code(ErrorKind::Expired), 9) << "not on the wire by its deadline: never sent";
     EXPECT_EQ(kind_name(ErrorKind::OutcomeUnknown), "outcome_unknown");
     EXPECT_EQ(kind_name(ErrorKind::NotPermitted), "not_permitted");
     EXPECT_EQ(kind_name(ErrorKind::Rejected), "rejected");

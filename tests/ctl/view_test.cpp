@@ -139,6 +139,55 @@ TEST(CtlView, BusStatusTextAndJson) {
     EXPECT_EQ(doc["drives"].find("name", "fan")["health"].str(), "absent");
 }
 
+// The drive's own Modbus time-out: in the list of drives, and in a drive's status.
+TEST(CtlView, TheDrivesModbusTimeOutIsShown) {
+    auto b = bus_status();
+    b.drives[0].comm_timeout_state = shm::CommTimeoutState::Read;
+    b.drives[0].comm_timeout_verdict = shm::CommTimeoutVerdict::Off;
+    const auto rows = drive_rows(b);
+    ASSERT_EQ(rows.size(), 3U);
+    EXPECT_EQ(rows[0].back(), "TIME-OUT");
+    EXPECT_EQ(rows[1].back(), "off");
+    EXPECT_EQ(rows[2].back(), "-");  // not read
+    b.drives[0].comm_timeout_ms = 1000;
+    b.drives[0].comm_timeout_verdict = shm::CommTimeoutVerdict::MayFire;
+    EXPECT_EQ(drive_rows(b)[1].back(), "1 s, may fire");
+    const auto list = test::json::parse(drives_json(b).dump());
+    EXPECT_EQ(list.find("name", "pump")["comm_timeout"]["verdict"].str(), "may fire");
+    EXPECT_DOUBLE_EQ(list.find("name", "pump")["comm_timeout"]["timeout_ms"].num(), 1000);
+
+    auto s = pump_snapshot();
+    s.comm_timeout.state = shm::CommTimeoutState::Read;
+    s.comm_timeout.verdict = shm::CommTimeoutVerdict::Off;
+    s.comm_timeout.action_valid = 1;
+    s.comm_timeout.action = 1;
+    s.comm_timeout.gap_ms = 1150;
+    auto text = drive_status_text(s, &profile("atv21"), kNow);
+    EXPECT_NE(text.find("time-out  F803 = off; when it fires: F603 = 1 (Deceleration stop (Err5)); OFF: if the line "
+                        "or drivebusd dies, the drive runs on"),
+              std::string::npos)
+        << text;
+    s.comm_timeout.state = shm::CommTimeoutState::WriteRefused;
+    s.comm_timeout.verdict = shm::CommTimeoutVerdict::Fine;
+    s.comm_timeout.raw = 3;
+    s.comm_timeout.timeout_ms = 3000;
+    s.comm_timeout.wanted_ms = 2000;
+    s.comm_timeout.exception = 4;
+    text = drive_status_text(s, &profile("atv21"), kNow);
+    EXPECT_NE(text.find("F803 = 3 s; writing the configured 2 s was refused (exception 4)"), std::string::npos) << text;
+    EXPECT_NE(text.find("fine (drivebusd's requests at most 1.15 s apart)"), std::string::npos) << text;
+    const auto doc = test::json::parse(drive_status_json(s, &profile("atv21"), kNow).dump());
+    EXPECT_EQ(doc["comm_timeout"]["register"].str(), "F803");
+    EXPECT_EQ(doc["comm_timeout"]["state"].str(), "write refused");
+    EXPECT_DOUBLE_EQ(doc["comm_timeout"]["timeout_ms"].num(), 3000);
+    EXPECT_DOUBLE_EQ(doc["comm_timeout"]["wanted_ms"].num(), 2000);
+    EXPECT_DOUBLE_EQ(doc["comm_timeout"]["fault_action"].num(), 1);
+    // A profile that names none.
+    s.comm_timeout = {};
+    EXPECT_NE(drive_status_text(s, &profile("atv58"), kNow).find("time-out  none named by the profile"),
+              std::string::npos);
+}
+
 TEST(CtlView, WatchShowsStateForControlProfilesAndRegistersOtherwise) {
     auto pump = pump_snapshot();
     pump.registers[pump.register_count - 1].valid = 1;

@@ -21,7 +21,11 @@ them: scripts/package-check runs it on the .debs of a fresh build.
   taken from the package), when systemd-analyze is there;
 - the units' ExecStart= programs and --config files, their Documentation= files and every
   concrete /usr, /etc and /lib file the man pages name are installed by one of the packages;
-  drivebusd looks for profiles where drivebus-common puts them.
+  drivebusd looks for profiles where drivebus-common puts them;
+- the MQTT bridge's secrets are its own: the packaged drivebus.conf, applied by
+  systemd-sysusers into a scratch root (check_sysusers.py), makes the group drivebus-mqtt with
+  the user drivebus-mqtt its only member; the packaged unit puts the bridge in it; the packaged
+  mqtt.md and drivebus-mqtt(1) say root:drivebus-mqtt, never the watchers' root:drivebus.
 
 usage: check_package.py DEB_DIR VERSION SOURCE_DIR
 """
@@ -108,7 +112,8 @@ REQUIRED = {
 }
 # Named by the man pages as the administrator's, not installed: the udev rule of the board, and
 # the configuration fragments (the drivebusd package ships their directory, empty).
-ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/", "/etc/drivebus/mqtt.toml")
+ADMIN_PATHS = ("/etc/udev/rules.d/", "/etc/drivebus/drivebusd.d/", "/etc/drivebus/mqtt.toml",
+               "/etc/drivebus/profiles/", "/etc/drivebus/profiles", "/etc/drivebus/mqtt.password")
 CONFFILES = ["/etc/drivebus/drivebusd.toml", "/etc/drivebus/roudi.toml"]
 GATEWAY_CONFFILES = ["/etc/drivebus/gateway.toml"]
 # drivebus-gateway's snippets (dh_installsystemd): enabled, started, stopped on removal, purged.
@@ -191,6 +196,40 @@ def normalised_symbols(text, bits):
             name = run(["c++filt", name]).stdout.strip()
         out.add((f"{name}@{node}", version))
     return out
+
+
+def mqtt_secret_problems(roots):
+    """The bridge's password file and TLS key belong to a group only its user is in."""
+    problems = []
+    here = os.path.dirname(os.path.abspath(__file__))
+    conf = os.path.join(roots.get("drivebusd", ""), "usr/lib/sysusers.d/drivebus.conf")
+    sysusers = shutil.which("systemd-sysusers")
+    if not sysusers:
+        print("no systemd-sysusers: drivebus.conf not applied")
+    elif os.path.exists(conf):
+        p = run([sys.executable, os.path.join(here, "check_sysusers.py"), sysusers, conf])
+        if p.returncode != 0:
+            problems += [f"drivebus.conf: {line.split(': ', 1)[-1]}" for line in p.stdout.splitlines()
+                         if line.startswith(conf + ": ")] or [f"drivebus.conf: check_sysusers.py exit {p.returncode}"]
+    unit = os.path.join(roots.get("drivebus-mqtt", ""), "lib/systemd/system/drivebus-mqtt.service")
+    if os.path.exists(unit):
+        settings = dict(re.findall(r"^(User|SupplementaryGroups)=(.*)$", open(unit, encoding="utf-8").read(), re.M))
+        if settings.get("User") != "drivebus-mqtt" or "drivebus-mqtt" not in settings.get("SupplementaryGroups",
+                                                                                             "").split():
+            problems.append("drivebus-mqtt.service: not run as user drivebus-mqtt with SupplementaryGroups "
+                            f"drivebus-mqtt ({settings})")
+    docs = [(os.path.join(roots.get("drivebus-common", ""), "usr/share/doc/drivebus/mqtt.md"), open),
+            (os.path.join(roots.get("drivebus-mqtt", ""), "usr/share/man/man1/drivebus-mqtt.1.gz"), gzip.open)]
+    for path, opener in docs:
+        if not os.path.exists(path):
+            continue
+        with opener(path, "rt", encoding="utf-8") as f:
+            text = f.read().replace("\\-", "-")
+        if "root:drivebus-mqtt" not in text:
+            problems.append(f"{os.path.basename(path)}: does not say root:drivebus-mqtt for the bridge's secrets")
+        if re.search(r"root:drivebus(?![-\w])", text):
+            problems.append(f"{os.path.basename(path)}: names root:drivebus, the watchers' group, for a secret")
+    return problems
 
 
 def main(argv):
@@ -416,6 +455,8 @@ def main(argv):
                 found = path in owner or any(f.startswith(path + "/") for f in owner)
             if not found:
                 problems.append(f"{path} (named by {page}) is not in a package")
+
+        problems += mqtt_secret_problems(roots)
 
         daemon = os.path.join(root, "usr/sbin/drivebusd")
         if os.path.exists(daemon):

@@ -57,7 +57,7 @@ def public_api(include):
         for m in re.finditer(r"DRIVEBUS_API\s+[\w:<>,\s&*]+?\s(\w+)\(", text):
             wanted.add(f"drivebus::{m.group(1)}(")
     profile = (pathlib.Path(include) / "profile.hpp").read_text()
-    for m in re.finditer(r"^\[\[nodiscard\]\]\s+(?!constexpr)[\w:<>,\s]+?\s(\w+)\(", profile, re.M):
+    for m in re.finditer(r"^\[\[nodiscard\]\]\s+(?!constexpr)[\w:<>,\s*&]+?\s(\w+)\(", profile, re.M):
         wanted.add(f"drivebus::{m.group(1)}(")
     return wanted
 

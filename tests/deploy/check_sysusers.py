@@ -6,7 +6,8 @@ group drivebus and shell nologin, a member of drivebusd and dialout and of nothi
 drivebus's (not drivebus-control: the daemon sends no requests); the system user
 drivebus-gateway, primary group drivebus, a member of drivebus-control and of nothing else (not
 drivebusd: only the daemon writes the shared memory; not dialout: it opens no port); the same
-for drivebus-mqtt, the MQTT bridge's user.
+for drivebus-mqtt, the MQTT bridge's user, which is also the one member of the group
+drivebus-mqtt, the group of its secrets (no other user in it, nor with it as primary group).
 
 The scratch root starts with a group file holding dialout, as on Debian. systemd-sysusers
 exits 0 after a line it ignores, so any message naming the file fails too.
@@ -18,13 +19,31 @@ import subprocess
 import sys
 import tempfile
 
-GROUPS = ("drivebus", "drivebusd", "drivebus-control")
+GROUPS = ("drivebus", "drivebusd", "drivebus-control", "drivebus-mqtt")
 # Each user: the groups it must be a member of, and those it must not.
 USERS = {
-    "drivebus": ({"drivebusd", "dialout"}, {"drivebus-control"}),
-    "drivebus-gateway": ({"drivebus-control"}, {"drivebusd", "dialout"}),
-    "drivebus-mqtt": ({"drivebus-control"}, {"drivebusd", "dialout"}),
+    "drivebus": ({"drivebusd", "dialout"}, {"drivebus-control", "drivebus-mqtt"}),
+    "drivebus-gateway": ({"drivebus-control"}, {"drivebusd", "dialout", "drivebus-mqtt"}),
+    "drivebus-mqtt": ({"drivebus-control", "drivebus-mqtt"}, {"drivebusd", "dialout"}),
 }
+# Groups of a service's secrets: exactly these members, and no one's primary group.
+SECRET_GROUPS = {"drivebus-mqtt": {"drivebus-mqtt"}}
+
+
+def secret_group_problems(groups, users):
+    """Problems with the secret groups in a group and a passwd database (read_db's form)."""
+    problems = []
+    for g, wanted in SECRET_GROUPS.items():
+        entry = groups.get(g)
+        if entry is None:
+            continue  # "no group" is said once, above
+        members = {m for m in entry[3].split(",") if m}
+        for extra in sorted(members - wanted):
+            problems.append(f"group {g} has member {extra}: only {', '.join(sorted(wanted))} may read its secrets")
+        for name, user in sorted(users.items()):
+            if user[3] == entry[2]:
+                problems.append(f"group {g} is the primary group of user {name}")
+    return problems
 
 
 def read_db(path):
@@ -75,6 +94,8 @@ def main(argv):
             problems.append(f"user {name} is not a member of {g}")
         for g in sorted(not_member_of & member_of):
             problems.append(f"user {name} is a member of {g}")
+
+    problems += secret_group_problems(groups, users)
 
     for p in problems:
         print(f"{argv[2]}: {p}")

@@ -65,6 +65,11 @@ void check_profile(const Profile& p) {
             check(r != nullptr && writable(r->access), "a lease register that cannot be written");
         }
     }
+    if (p.safety && !p.safety->comm_timeout.empty()) {
+        const auto* r = p.find(p.safety->comm_timeout);
+        check(r != nullptr && r->address && readable(r->access), "a time-out register drivebusd cannot read");
+        check(p.safety->comm_timeout_seconds > 0.0, "a time-out unit not above 0");
+    }
     for (const auto& f : p.fault_codes) {
         check(p.fault(f.code) == &f, "two fault codes with one number");
     }

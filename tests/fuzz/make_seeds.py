@@ -3,9 +3,10 @@
 """Writes the binary seed corpora of the fuzz targets (the text ones are written by hand):
 run it again after a change of layout or input format: python3 tests/fuzz/make_seeds.py
 
-fuzz_admission: shm::Request chunks as a client leaves them. The layout is include/drivebus/shm.hpp's Request (payload version 1, 344 bytes, little-endian):
-version u32, size u32, correlation u64, client u64, kind u8, flags u8, address u8, function u8,
-start u16, count u16, drive char[32], client_name char[32], values u16[123] (and padding).
+fuzz_admission: shm::Request chunks as a client leaves them. The layout is include/drivebus/shm.hpp's Request (payload version 5, 376 bytes, little-endian):
+version u32, size u32, correlation u64, client u64, lease_token u64[2], kind u8, flags u8,
+address u8, function u8, start u16, count u16, pid i32, reserved u32, drive char[32],
+client_name char[32], values u16[123], padding to 8, deadline_ns i64.
 
 fuzz_sim_frames: records [flags][length][request without its CRC]; (flags >> 1) x 10 ms pass
 before each.
@@ -20,15 +21,17 @@ register; 76 and above, none.
 import pathlib
 import struct
 
-VERSION, SIZE = 1, 344
+VERSION, SIZE = 5, 376
 READ, WRITE, IDENTIFY, BROADCAST, RENEW, RELEASE, PROBE = range(7)
 
 
-def request(kind, drive="", address=0, start=0, count=0, values=(), function=0, flags=0):
-    head = struct.pack("<IIQQBBBBHH", VERSION, SIZE, 7, 0x1234, kind, flags, address, function, start, count)
+def request(kind, drive="", address=0, start=0, count=0, values=(), function=0, flags=0, deadline_ns=0):
+    head = struct.pack("<IIQQQQBBBBHHiI", VERSION, SIZE, 7, 0x1234, 0, 0, kind, flags, address, function, start,
+                       count, 1234, 0)
     body = drive.encode().ljust(32, b"\0") + b"pump-control[1234]".ljust(32, b"\0")
     words = struct.pack("<123H", *(list(values) + [0] * (123 - len(values))))
-    return (head + body + words).ljust(SIZE, b"\0")
+    tail = (head + body + words).ljust(SIZE - 8, b"\0")
+    return tail + struct.pack("<q", deadline_ns)
 
 
 ADMISSION = {
@@ -36,6 +39,7 @@ ADMISSION = {
     "read_pump_block": request(READ, "pump", start=0x1875, count=5),
     "read_fan_w450_by_address": request(READ, "", address=2, start=0x01C2, count=10),
     "write_pump_fa01": request(WRITE, "pump", start=0xFA01, count=1, values=[4000]),
+    "write_pump_fa00_deadline": request(WRITE, "pump", start=0xFA00, count=1, values=[0xC400], deadline_ns=5_000_000_000),
     "write_pump_block": request(WRITE, "pump", start=0x1870, count=2, values=[0xC400, 4000], function=16),
     "write_fan_w400_w401": request(WRITE, "fan", start=0x0190, count=2, values=[15, 400]),
     "write_pump_f803_out_of_range": request(WRITE, "pump", start=0x0803, count=1, values=[1000]),

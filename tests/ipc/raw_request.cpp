@@ -3,6 +3,8 @@
 // bus's request server and sends one write (pump's FA51 = VALUE):
 //   raw_request BUS VALUE
 // Prints "answered STATUS" and exits 0 when drivebusd answered Ok; anything else is non-zero.
+//   raw_request BUS keep N
+// Keeps N reads of the pump's FD00 in flight until killed (each answer sends the next).
 //   raw_request BUS flood N [GO]
 // Sends N reads of the pump's FD00 at once (N <= 16, a client's response queue), then takes
 // the answers for up to 20 s: "answers A of N ok O full F line L other X duplicates D"; exits 0
@@ -10,6 +12,11 @@
 // answer (time-out, bad frame, late, bus down), `other` everything else. With GO, it prints
 // "connected" once connected and sends only when the file GO exists, so that many clients can
 // send at the same moment.
+//   raw_request BUS spam
+// Keeps 8 requests in flight until killed, sending the next as soon as an answer comes, without
+// a pause: much of its time is spent inside iceoryx's send(), where a SIGKILL leaves locks
+// held. They name no drive of the bus, so drivebusd refuses them at once and the line stays
+// free for others. Prints "spamming" after its first answer.
 #include <unistd.h>
 
 #include <chrono>
@@ -88,12 +95,112 @@ int flood(iox::popo::UntypedClient& client, int n) {
     return total == n && duplicates == 0 ? 0 : 5;
 }
 
+// Keeps `n` reads of the pump's FD00 in flight until killed: each answer is followed by a new
+// read. "flooding" once n are out; every 100 answers "answers A full F".
+int keep(iox::popo::UntypedClient& client, int n) {
+    using namespace drivebus;
+    std::uint64_t next = 0;
+    const auto send_one = [&] {
+        auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
+        if (loaned.has_error()) {
+            return false;
+        }
+        shm::Request r;
+        r.size = sizeof r;
+        r.kind = shm::RequestKind::Read;
+        r.correlation = next++;
+        r.client = static_cast<std::uint64_t>(::getpid());
+        shm::assign(r.drive, "pump");
+        shm::assign(r.client_name, "raw_request keep");
+        r.start = 0xFD00;
+        r.count = 1;
+        std::memcpy(loaned.value(), &r, sizeof r);
+        return !client.send(loaned.value()).has_error();
+    };
+    for (int i = 0; i < n; ++i) {
+        if (!send_one()) {
+            return 4;
+        }
+    }
+    std::printf("flooding\n");
+    std::fflush(stdout);
+    std::uint64_t answers = 0;
+    std::uint64_t full = 0;
+    for (;;) {
+        auto taken = client.take();
+        if (taken.has_error()) {
+            std::this_thread::sleep_for(std::chrono::microseconds(200));
+            continue;
+        }
+        shm::Response response{};
+        std::memcpy(&response, taken.value(), sizeof response);
+        client.releaseResponse(taken.value());
+        ++answers;
+        full += response.status == shm::Status::QueueFull ? 1 : 0;
+        if (answers % 100 == 0) {
+            std::printf("answers %llu full %llu\n", static_cast<unsigned long long>(answers),
+                        static_cast<unsigned long long>(full));
+            std::fflush(stdout);
+        }
+        if (!send_one()) {
+            return 4;
+        }
+    }
+}
+
+bool send_read(iox::popo::UntypedClient& client, std::uint64_t correlation) {
+    using namespace drivebus;
+    auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
+    if (loaned.has_error()) {
+        return false;
+    }
+    shm::Request r;
+    r.size = sizeof r;
+    r.kind = shm::RequestKind::Read;
+    r.correlation = correlation;
+    r.client = static_cast<std::uint64_t>(::getpid());
+    shm::assign(r.drive, "pump");
+    shm::assign(r.client_name, "raw_request spam");
+    shm::assign(r.drive, "nobody");
+    r.start = 0xFD00;
+    r.count = 1;
+    std::memcpy(loaned.value(), &r, sizeof r);
+    return !client.send(loaned.value()).has_error();
+}
+
+[[noreturn]] void spam(iox::popo::UntypedClient& client) {
+    constexpr int kInFlight = 8;
+    std::uint64_t correlation = 0;
+    int in_flight = 0;
+    bool first = true;
+    for (;;) {
+        while (in_flight < kInFlight && send_read(client, ++correlation)) {
+            ++in_flight;
+        }
+        auto taken = client.take();
+        if (taken.has_error()) {
+            continue;
+        }
+        client.releaseResponse(taken.value());
+        --in_flight;
+        if (first) {
+            std::printf("spamming\n");
+            std::fflush(stdout);
+            first = false;
+        }
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     const bool flooding = (argc == 4 || argc == 5) && std::string(argv[2]) == "flood";
-    if (argc != 3 && !flooding) {
-        std::fprintf(stderr, "usage: raw_request BUS VALUE | raw_request BUS flood N [GO]\n");
+    const bool keeping = argc == 4 && std::string(argv[2]) == "keep";
+    const bool spamming = argc == 3 && std::string(argv[2]) == "spam";
+    if (argc != 3 && !flooding && !keeping) {
+        std::fprintf(stderr,
+                     "usage: raw_request BUS VALUE | raw_request BUS flood N [GO] | raw_request BUS keep N | "
+                     "raw_request BUS spam\n");
         return 2;
     }
     using namespace drivebus;
@@ -104,6 +211,12 @@ int main(int argc, char** argv) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(argc == 5 ? 30 : 3);
     while (client.getConnectionState() != iox::ConnectionState::CONNECTED && std::chrono::steady_clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    if (keeping) {
+        return keep(client, std::atoi(argv[3]));
+    }
+    if (spamming) {
+        spam(client);
     }
     if (flooding) {
         if (argc == 5) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "stack.hpp"
 
+#include <signal.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -58,19 +59,17 @@ Stack::Stack(StackOptions options) {
                            << "\"\n"
                               "[[bus]]\nname = \""
                            << bus_ << "\"\ndevice = \"" << sim_->link().string()
-                           << "\"\nparity = \"none\"\nresponse_timeout = \"100ms\"\nretries = 3\n"
-                              "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
+                           << "\"\nparity = \"none\"\nresponse_timeout = \"100ms\"\nretries = 3\nstate_dir = \""
+                           << (dir_ / "state").string() << "\"\n"
+                           << options.bus_extra
+                           << "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
                            << options.drive_extra << (options.polls ? pump_polls : std::string("\n"));
     if (options.fan) {
         std::ofstream(config_, std::ios::app)
             << "  [[bus.drive]]\n  name = \"fan\"\n  address = 2\n  profile = \"atv58\"\n"
             << (options.polls ? fan_polls : std::string());
     }
-    daemon_ = std::make_unique<Child>(std::vector<std::string>{DRIVEBUSD_PATH, "--config", config_.string()});
-    // Ready when drivebusd's RouDi answers and the daemon says it runs.
-    if (!wait_until([&] { return roudi_answers() && daemon_->output().find("running:") != std::string::npos; }, 10s)) {
-        throw std::runtime_error("drivebusd did not come up: " + daemon_->output());
-    }
+    start_daemon();
     if (options.reset_pump && config_text().find("indirect = true") != std::string::npos) {
         if (!wait_until([&] { return daemon_->output().find("drive pump: awaiting a reset") != std::string::npos; },
                         20s)) {
@@ -157,6 +156,22 @@ std::string Stack::config_text() const {
 
 int Stack::stop_daemon() {
     return daemon_->stop();
+}
+
+void Stack::kill_daemon() {
+    ::kill(daemon_->pid(), SIGKILL);
+    (void)daemon_->stop();  // reaps it
+}
+
+void Stack::start_daemon() {
+    if (!wait_until([] { return roudi_gone(); }, 60s)) {
+        throw std::runtime_error("the last RouDi is still there (/tmp/roudi)");
+    }
+    daemon_ = std::make_unique<Child>(std::vector<std::string>{DRIVEBUSD_PATH, "--config", config_.string()});
+    // Ready when drivebusd's RouDi answers and the daemon says it runs.
+    if (!wait_until([&] { return roudi_answers() && daemon_->output().find("running:") != std::string::npos; }, 10s)) {
+        throw std::runtime_error("drivebusd did not come up: " + daemon_->output());
+    }
 }
 
 }  // namespace drivebus::test

@@ -17,6 +17,7 @@ namespace drivebus::test {
 struct StackOptions {
     std::vector<std::string> sim_args;  // more drivebus-sim arguments (faults, options)
     std::string drive_extra;            // extra keys for the pump's [[bus.drive]] table
+    std::string bus_extra;              // extra keys for the [[bus]] table
     std::string poll_period = "50ms";
     bool polls = true;  // false: no [[bus.drive.poll]], so only clients' requests reach the line
     bool paced = true;
@@ -51,6 +52,13 @@ public:
     [[nodiscard]] int daemon_pid() const noexcept { return daemon_->pid(); }
     // Stops drivebusd (SIGTERM) and returns its exit status.
     int stop_daemon();
+    // Kills drivebusd (SIGKILL), as a crash would, and waits until it is gone.
+    void kill_daemon();
+    // Starts drivebusd again on the same configuration, once the last one's RouDi is gone, and
+    // waits until it runs.
+    void start_daemon();
+    // Where drivebusd keeps its lease record (state_dir).
+    [[nodiscard]] std::filesystem::path state_dir() const { return dir_ / "state"; }
     // Switches the simulated pump off and on, silent meanwhile until drivebusd has found it
     // absent; then waits until drivebusd has confirmed its set-up again.
     void power_cycle_pump();

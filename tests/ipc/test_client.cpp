@@ -6,6 +6,8 @@
 //                                         reply failed on the line is asked again, see below)
 //   test_client BUS writes REG V...       one write per value, in order, each acknowledged: "ok V"
 //   test_client BUS broadcast ADDR V...   one broadcast write (FC06 or FC16) to address 0: "sent"
+//   test_client BUS take HZ               a controller's start (FA01 = HZ, FA00 = run), retried on
+//                                         QueueFull: "took tries T ms M", then releases the lease
 //   test_client BUS flood REG             reads REG until killed: "ready" after the first
 //   test_client BUS command HZ            take the pump's lease, run forward at HZ, "holding",
 //                                         "client ID" (its Bus::client_id()), then a control loop
@@ -27,6 +29,8 @@
 //   test_client BUS lease                 waits (5 s at most) for a pump snapshot whose lease
 //                                         expired and whose fallback was acknowledged:
 //                                         "lease expired holder kept|none fallback_ok 0|1 registers N"
+//   test_client BUS frequency DRIVE HZ    Altivar::set_frequency(HZ) on DRIVE, then gives the lease
+//                                         back (release_control): "set"
 // Exit status: 0, or 1 with the library's one-line error on stderr.
 #include <condition_variable>
 #include <cstdio>
@@ -180,6 +184,33 @@ int main(int argc, char** argv) {
         std::printf("sent\n");
         return 0;
     }
+    if (mode == "take" && argc == 4) {
+        // A controller's start, retried on QueueFull as an application would: the reference,
+        // then the run command; "took tries T ms M" (M: the successful try's time), then
+        // gives the lease back.
+        const auto hz = static_cast<std::uint16_t>(std::atoi(argv[3]) * 100);
+        const std::uint16_t run = 0xC400;
+        for (int tries = 1; tries <= 500; ++tries) {
+            const auto start = std::chrono::steady_clock::now();
+            auto ok = pump->write("FA01", std::span(&hz, 1));
+            if (ok) {
+                ok = pump->write("FA00", std::span(&run, 1));
+            }
+            const auto took = std::chrono::steady_clock::now() - start;
+            if (ok) {
+                std::printf(
+                    "took tries %d ms %lld\n", tries,
+                    static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(took).count()));
+                (void)pump->release_control();
+                return 0;
+            }
+            if (ok.error().kind != drivebus::ErrorKind::QueueFull) {
+                return fail(ok.error());
+            }
+        }
+        std::printf("never took it in 500 tries\n");
+        return 1;
+    }
     if (mode == "flood" && argc == 4) {
         bool first = true;
         for (;;) {
@@ -282,6 +313,19 @@ int main(int argc, char** argv) {
             }
         }
         return refused ? 0 : 1;
+    }
+    if (mode == "frequency" && argc == 5) {
+        auto drive = bus->drive(argv[3]);
+        if (!drive) {
+            return fail(drive.error());
+        }
+        const drivebus::Altivar altivar(*drive);
+        if (auto ok = altivar.set_frequency(std::atof(argv[4])); !ok) {
+            return fail(ok.error());
+        }
+        [[maybe_unused]] const auto released = drive->release_control();
+        std::printf("set\n");
+        return 0;
     }
     if ((mode == "command" || mode == "hang") && argc == 4) {
         const drivebus::Altivar altivar(*pump);

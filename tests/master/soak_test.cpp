@@ -74,7 +74,8 @@ std::pair<unsigned, unsigned> copies_allowed(Outcome outcome, unsigned attempts)
     switch (outcome) {
     case Outcome::Ok: return {1, std::max(1U, attempts)};
     case Outcome::Exception:
-    case Outcome::BusDown: return {0, 0};
+    case Outcome::BusDown:
+    case Outcome::Expired: return {0, 0};
     case Outcome::Timeout:
     case Outcome::BadFrame:
     case Outcome::EchoMismatch:

@@ -156,9 +156,13 @@ bool Watcher::publish(const std::string& topic, const std::string& payload, int 
                              false) == MOSQ_ERR_SUCCESS;
 }
 
-std::pair<int, std::string> mosquitto_pub(int port, const std::string& topic, const std::string& payload) {
-    return run_program(
-        {MOSQUITTO_PUB_PATH, "-h", "127.0.0.1", "-p", std::to_string(port), "-q", "1", "-t", topic, "-m", payload});
+std::pair<int, std::string> mosquitto_pub(int port, const std::string& topic, const std::string& payload, bool retain) {
+    std::vector<std::string> argv{
+        MOSQUITTO_PUB_PATH, "-h", "127.0.0.1", "-p", std::to_string(port), "-q", "1", "-t", topic, "-m", payload};
+    if (retain) {
+        argv.emplace_back("-r");
+    }
+    return run_program(argv);
 }
 
 std::pair<int, std::string> mosquitto_sub_one(int port, const std::string& topic) {

@@ -81,7 +81,8 @@ private:
 };
 
 // mosquitto_pub / mosquitto_sub, to the broker on `port`: exit status and output.
-std::pair<int, std::string> mosquitto_pub(int port, const std::string& topic, const std::string& payload);
+std::pair<int, std::string> mosquitto_pub(int port, const std::string& topic, const std::string& payload,
+                                          bool retain = false);
 std::pair<int, std::string> mosquitto_sub_one(int port, const std::string& topic);
 
 }  // namespace drivebus::test

@@ -138,11 +138,26 @@ TEST(MqttPayload, DriveStateHasNamesUnitsAndTheAltivarDecoding) {
     EXPECT_EQ(j["altivar"]["running"], true);
     EXPECT_DOUBLE_EQ(j["altivar"]["output_hz"].get<double>(), 60.0);
     EXPECT_EQ(j["lease"]["state"], "free");
+    EXPECT_EQ(j["comm_timeout"]["state"], "unknown");
     EXPECT_EQ(j["polled_ns"], 1);  // the newest valid sample's time
     // Without a profile: registers by number, raw values.
     const auto bare = drive_state(pump_snapshot(6000), nullptr);
     EXPECT_EQ(bare["registers"]["0xFD00"]["value"], 6000.0);
     EXPECT_FALSE(bare.contains("altivar"));
+}
+
+TEST(MqttPayload, DriveStateCarriesTheDrivesModbusTimeOut) {
+    const auto profile = atv21();
+    auto s = pump_snapshot(6000);
+    s.comm_timeout.state = shm::CommTimeoutState::Read;
+    s.comm_timeout.verdict = shm::CommTimeoutVerdict::Off;
+    const auto off = drive_state(s, &profile);
+    EXPECT_EQ(off["comm_timeout"]["state"], "read");
+    EXPECT_EQ(off["comm_timeout"]["verdict"], "off");
+    EXPECT_EQ(off["comm_timeout"]["timeout_ms"], 0);
+    s.comm_timeout.verdict = shm::CommTimeoutVerdict::Fine;
+    s.comm_timeout.timeout_ms = 3000;
+    EXPECT_EQ(drive_state(s, &profile)["comm_timeout"]["timeout_ms"], 3000);
 }
 
 TEST(MqttPayload, DeadbandOnValuesOnly) {
@@ -251,6 +266,17 @@ TEST(MqttCommand, PlansAgainstTheProfile) {
     EXPECT_NE(error(R"({"id": 3, "registers": {"FD00": 1}})").find("read-only"), std::string::npos);
     EXPECT_NE(error(R"({"id": 3, "frequency": 5000})").find("outside"), std::string::npos);
     EXPECT_NE(error(R"({"id": 3, "registers": {"FA01": {"raw": 70000}}})").find("16-bit"), std::string::npos);
+    // A reference without a unit (the ATV58's W401) takes no frequency; a raw word still goes.
+    auto atv58 = load_profile(std::string(DRIVEBUS_TEST_PROFILE_DIR) + "/atv58.toml");
+    ASSERT_TRUE(atv58) << atv58.error().message;
+    const auto on58 = plan(*parse_command(R"({"id": 6, "frequency": 50})", 4096), &*atv58);
+    ASSERT_FALSE(on58);
+    EXPECT_NE(on58.error().find("frequency: the atv58 profile gives its frequency reference W401 no unit"),
+              std::string::npos)
+        << on58.error();
+    const auto raw58 = plan(*parse_command(R"({"id": 7, "registers": {"W401": {"raw": 500}}})", 4096), &*atv58);
+    ASSERT_TRUE(raw58) << raw58.error();
+    EXPECT_EQ((*raw58)[0].raw, 500);
     // No profile: numbers and raw words only; no verbs.
     EXPECT_FALSE(plan(*parse_command(R"({"id": 4, "verb": "run"})", 4096), nullptr));
     auto raw = plan(*parse_command(R"({"id": 5, "registers": {"0x0010": 7}})", 4096), nullptr);

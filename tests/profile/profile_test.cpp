@@ -202,6 +202,32 @@ TEST(Atv21, FrequencyReferenceFA01) {
     EXPECT_FALSE(fa01->max.has_value());  // the maximum is the drive's FH, not a constant
 }
 
+// A frequency goes to the reference only when the profile gives it in Hz: the ATV21's FA01 in
+// 0.01 Hz; the ATV58's W401 has no unit or scale in any source, so 50 Hz is never written as 50.
+TEST(FrequencyReference, OnlyAReferenceInHzTakesAFrequency) {
+    const auto atv21 = load_real("atv21");
+    const auto fa01 = frequency_reference(atv21);
+    ASSERT_TRUE(fa01) << fa01.error();
+    EXPECT_EQ((*fa01)->name, "FA01");
+    EXPECT_EQ((*fa01)->from_engineering(50.0), 5000);
+    const auto atv58 = load_real("atv58");
+    const auto w401 = frequency_reference(atv58);
+    ASSERT_FALSE(w401);
+    EXPECT_NE(w401.error().find("the atv58 profile gives its frequency reference W401 no unit and scale"),
+              std::string::npos)
+        << w401.error();
+    auto percent = atv21;
+    for (auto& r : percent.registers) {
+        if (r.name == "FA01") {
+            r.unit = "%";
+        }
+    }
+    EXPECT_NE(frequency_reference(percent).error().find("the unit '%'"), std::string::npos);
+    auto none = atv21;
+    none.control.reset();
+    EXPECT_NE(frequency_reference(none).error().find("names no frequency reference"), std::string::npos);
+}
+
 TEST(Atv21, OutputFrequencyFD00IsReadOnly) {
     const auto p = load_real("atv21");
     const auto* fd00 = p.find("FD00");
@@ -696,19 +722,23 @@ TEST(Files, ErrorsNameTheFilePath) {
         << p.error().message;
 }
 
-TEST(SearchPath, EnvironmentThenSourceTreeThenInstallDir) {
+// The site's directory (etc/) comes before the installed one (share/): a site profile of the
+// same type overrides the packaged one for the daemon and every client alike.
+TEST(SearchPath, EnvironmentThenSourceTreeThenSiteThenInstallDir) {
     {
         const ScopedEnv env("DRIVEBUS_PROFILE_DIR", "/opt/site-profiles");
         const auto dirs = profile_search_path();
-        ASSERT_EQ(dirs.size(), 3U);
+        ASSERT_EQ(dirs.size(), 4U);
         EXPECT_EQ(dirs[0], fs::path("/opt/site-profiles"));
         EXPECT_EQ(dirs[1], profile_dir());
-        EXPECT_TRUE(dirs[2].string().ends_with("/drivebus/profiles")) << dirs[2];
+        EXPECT_TRUE(dirs[2].string().ends_with("etc/drivebus/profiles")) << dirs[2];
+        EXPECT_TRUE(dirs[3].string().ends_with("share/drivebus/profiles")) << dirs[3];
         EXPECT_TRUE(dirs[2].is_absolute());
+        EXPECT_TRUE(dirs[3].is_absolute());
     }
     const ScopedEnv unset("DRIVEBUS_PROFILE_DIR", nullptr);
     const auto dirs = profile_search_path();
-    ASSERT_EQ(dirs.size(), 2U);
+    ASSERT_EQ(dirs.size(), 3U);
     EXPECT_EQ(dirs[0], profile_dir());
 }
 
@@ -814,6 +844,71 @@ TEST(Control, Rejections) {
     EXPECT_TRUE(rejected(base + "\n[control]\ncommand = \"FA01\"\nstop = 70000\n", {"control", "stop"}));
     EXPECT_TRUE(rejected(base + "\n[control]\nbrake = 1\n", {"control", "brake"}));
     EXPECT_TRUE(rejected(base + "\n[control]\nstatus_bits = { running = 16 }\n", {"status_bits", "running"}));
+}
+
+// ---------------------------------------------------------------------------------------------
+// [safety]: the drive's own Modbus time-out
+
+TEST(Safety, Atv21NamesF803AndF603) {
+    const auto p = load_real("atv21");
+    ASSERT_TRUE(p.safety.has_value());
+    EXPECT_EQ(p.safety->comm_timeout, "F803");
+    EXPECT_EQ(p.safety->comm_fault_action, "F603");
+    EXPECT_EQ(p.safety->comm_timeout_seconds, 1.0);
+    EXPECT_EQ(p.safety->comm_timeout_off, 0);
+    EXPECT_EQ(p.safety->milliseconds(3), 3000U);  // the factory setting
+    EXPECT_EQ(p.safety->milliseconds(0), 0U);     // off
+    EXPECT_EQ(p.safety->milliseconds(100), 100000U);
+}
+
+TEST(Safety, Atv58NamesNone) {
+    // Its manual names no time-out register.
+    EXPECT_FALSE(load_real("atv58").safety.has_value());
+}
+
+// kValid with a time-out register (tenths of a second) and a [safety] table of `keys`.
+std::string with_safety(std::string_view keys) {
+    return std::string(kValid) +
+           "\n[[register]]\nname = \"TO\"\naddress = 0x0200\naccess = \"rw\"\nunit = \"s\"\nscale = 0.1\n"
+           "min = 0\nmax = 600\n\n[[register]]\nname = \"WO\"\naddress = 0x0201\naccess = \"w\"\n\n[safety]\n" +
+           std::string(keys) + "\n";
+}
+
+TEST(Safety, ParsesAndTakesTheRegistersSpelling) {
+    const auto p =
+        parse_profile(with_safety("comm_timeout = \"to\"\ncomm_timeout_unit = \"0.1s\"\ncomm_timeout_off = 0\n"
+                                  "comm_fault_action = \"s1\""),
+                      "test.toml");
+    ASSERT_TRUE(p) << p.error().message;
+    EXPECT_EQ(p->safety->comm_timeout, "TO");
+    EXPECT_EQ(p->safety->comm_fault_action, "S1");
+    EXPECT_EQ(p->safety->milliseconds(25), 2500U);
+    EXPECT_EQ(p->safety->milliseconds(0), 0U);
+    // Without an "off" value, 0 is just 0 counts.
+    const auto no_off = parse_profile(with_safety("comm_timeout = \"TO\"\ncomm_timeout_unit = \"0.1s\""), "t");
+    ASSERT_TRUE(no_off) << no_off.error().message;
+    EXPECT_FALSE(no_off->safety->comm_timeout_off.has_value());
+}
+
+TEST(Safety, Rejections) {
+    const std::string_view unit = "comm_timeout_unit = \"0.1s\"";
+    const auto both = [&](std::string_view more) { return with_safety(std::string(unit) + "\n" + std::string(more)); };
+    EXPECT_TRUE(rejected(both("comm_timeout = \"XX99\""), {"safety: ", "comm_timeout 'XX99' is not a register"}));
+    EXPECT_TRUE(rejected(both("comm_timeout = \"NOADDR\""), {"safety: ", "'NOADDR' has no address"}));
+    EXPECT_TRUE(rejected(both("comm_timeout = \"WO\""), {"safety: ", "comm_timeout 'WO' is not readable"}));
+    EXPECT_TRUE(rejected(both("comm_timeout = \"TO\"\ncomm_fault_action = \"XX\""),
+                         {"safety: ", "comm_fault_action 'XX' is not a register"}));
+    EXPECT_TRUE(rejected(with_safety("comm_timeout = \"TO\"\ncomm_timeout_unit = \"s\""),
+                         {"safety: ", "comm_timeout_unit disagrees with register TO's unit \"s\" and scale 0.1"}));
+    EXPECT_TRUE(rejected(with_safety("comm_timeout = \"TO\"\ncomm_timeout_unit = \"hour\""),
+                         {"safety: ", "comm_timeout_unit 'hour' is not one of ms, 0.01s, 0.1s, s, min"}));
+    EXPECT_TRUE(rejected(with_safety("comm_timeout = \"TO\""), {"safety: ", "without comm_timeout_unit"}));
+    EXPECT_TRUE(rejected(with_safety("comm_timeout = \"FA01\"\ncomm_timeout_unit = \"s\""),
+                         {"safety: ", "comm_timeout 'FA01' has unit \"Hz\", not a time"}));
+    EXPECT_TRUE(rejected(both("comm_timeout = \"TO\"\ncomm_timeout_off = 601"),
+                         {"safety: ", "comm_timeout_off 601 is outside register TO's range"}));
+    EXPECT_TRUE(rejected(with_safety("comm_timeout_off = 0"), {"safety: ", "which is not given"}));
+    EXPECT_TRUE(rejected(both("comm_timeout = \"TO\"\ncomm_timout = 1"), {"safety: ", "unknown key 'comm_timout'"}));
 }
 
 }  // namespace

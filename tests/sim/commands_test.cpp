@@ -91,5 +91,28 @@ TEST_F(Commands, CommandLineArguments) {
     EXPECT_FALSE(apply_option_argument(bus, "load=5").has_value());
 }
 
+// --set: the Altivar 21's Modbus time-out (F803, factory 3 s) and its fault behaviour (F603)
+// from the start, as a pump whose time-out is off.
+TEST_F(Commands, SetArgumentsGiveRegistersTheirStartingValues) {
+    EXPECT_EQ(bus.drive(1)->peek("F803").value(), 3);  // the factory setting
+    EXPECT_EQ(bus.drive(1)->peek("F603").value(), 0);
+    EXPECT_TRUE(apply_set_argument(bus, "1:F803=0").has_value());
+    EXPECT_TRUE(apply_set_argument(bus, "1:f603=0x0001").has_value());
+    EXPECT_EQ(bus.drive(1)->peek("F803").value(), 0);
+    EXPECT_EQ(bus.drive(1)->peek("F603").value(), 1);
+    EXPECT_EQ(apply_set_argument(bus, "1:F803").error(), "'1:F803' is not ADDR:REG=VALUE");
+    EXPECT_EQ(apply_set_argument(bus, "1:F803=70000").error(),
+              "'70000' is not a 16-bit value (0-65535 or 0x0000-0xFFFF)");
+    EXPECT_EQ(apply_set_argument(bus, "7:F803=0").error(), "no simulated drive at address 7");
+    EXPECT_FALSE(apply_set_argument(bus, "1:XX99=0").has_value());
+    // And over Modbus, within the guide's range.
+    EXPECT_EQ(test::read_one(*bus.drive(1), 0x0803, test::at(0)), 0);
+    const auto written = test::ask(*bus.drive(1), rtu::WriteSingleRegister{0x0803, 5}, test::at(0));
+    EXPECT_TRUE(std::holds_alternative<rtu::WriteSingleRegisterResponse>(written));
+    EXPECT_EQ(bus.drive(1)->peek("F803").value(), 5);
+    const auto refused = test::ask(*bus.drive(1), rtu::WriteSingleRegister{0x0803, 101}, test::at(0));
+    EXPECT_TRUE(std::holds_alternative<rtu::ExceptionResponse>(refused));
+}
+
 }  // namespace
 }  // namespace drivebus::sim

@@ -68,6 +68,9 @@ public:
     // Starts the thread. Fails when real time is required and not granted.
     std::expected<void, std::string> start();
     void stop();
+    // drivebusd stops: the bus sends nothing but the lease fallbacks submitted before this
+    // (the clients' waiting requests are answered bus down); stop() then lets the line go.
+    void wind_down();
 
     // Queues a client request for the bus thread through the request ring; its result comes
     // back through handover().results. One thread only may submit (the ring's one producer).
@@ -99,6 +102,7 @@ private:
     std::thread thread_;
     std::atomic<std::uint64_t> heartbeat_{0};
     std::atomic<bool> up_{false};
+    std::atomic<bool> winding_{false};
 };
 
 }  // namespace drivebus::bus

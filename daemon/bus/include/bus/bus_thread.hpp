@@ -21,7 +21,8 @@ public:
         Handover& handover;
         sys::Seqlock<StatusCopy>& status;
         std::atomic<std::uint64_t>& heartbeat;
-        const sys::EventFd& wake;  // a request is waiting, or stop
+        const sys::EventFd& wake;          // a request is waiting, or stop
+        const std::atomic<bool>& winding;  // BusLoop::wind_down()
     };
 
     // Builds the thread's loop (on the calling thread); fails when the loop cannot watch its

@@ -39,6 +39,11 @@ struct BusConfig : master::BusPlan {
     // Used when the kernel says it has no RS485 support: rts, none, or nullopt (fail).
     std::optional<DirectionMode> kernel_fallback;
     std::filesystem::path lock_dir;  // UUCP lock files; empty: none
+    // Where the bus's lease record is kept (ipc/lease_record.hpp): a tmpfs, gone at boot.
+    std::filesystem::path state_dir = "/run/drivebus";
+    // Every drive silent this long while requests time out and the port is open: the port is
+    // reopened (master/mute_watch.hpp). nullopt: never.
+    std::optional<Duration> mute_reopen = std::chrono::seconds(10);
     // The bus's [[bus]] table as written (TOML, normalised): a reload restarts the buses whose
     // settings differ and leaves the others running.
     std::string settings;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <functional>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -44,6 +45,12 @@ public:
     // expires the control leases: it sets its scheduling.
     void start(const std::function<void()>& on_thread = {});
     void stop();
+
+    // drivebusd stops, or a reload drops the bus: no request is taken any more, and every
+    // lease held ends with its drive's fallback, sent before the line is let go (stop() then
+    // retire()). Ready once every fallback is answered (acknowledged, or given up as an
+    // expiry's is); the caller bounds the wait.
+    [[nodiscard]] std::future<void> wind_down();
 
     // A reload restarts the bus: once this service and its loop have both stopped, answers what
     // the bus finished, then every request still waiting (refused, bus down), and returns the

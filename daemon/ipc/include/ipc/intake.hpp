@@ -40,6 +40,8 @@ public:
     void abandon();
     // Stops listening and gives the server up for the restarted bus's intake.
     [[nodiscard]] std::shared_ptr<Server> release();
+    // drivebusd stops: every request from now on is answered bus down (IntakeCore::close()).
+    void close() noexcept;
     // A lease fallback's write; false when the bus could not take it.
     bool submit_own(std::size_t drive, const rtu::RequestAdu& write);
     // Drives whose lease snapshot changed since the last call.

@@ -57,12 +57,14 @@ public:
 private:
     void publish(std::size_t drive);
     void log_health(std::size_t drive, master::Health before, master::Health now, const master::SetupNote& note);
+    void log_comm_timeout(std::size_t drive, const master::CommTimeoutNote& note);
 
     const config::BusConfig& bus_;
     std::string control_group_;
     std::unique_ptr<Channels> channels_;
     std::vector<shm::DriveSnapshot> last_;
     std::vector<master::Health> health_;
+    std::vector<bool> comm_timeout_logged_;  // per drive: its time-out was logged
     std::atomic<std::size_t> online_{0};
     log::RateLimited absent_log_;
 };

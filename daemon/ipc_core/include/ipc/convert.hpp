@@ -23,5 +23,6 @@ void fill_response(const master::Finished& finished, shm::Response& out) noexcep
 void fill_response(const master::Result& result, shm::Response& out) noexcept;
 
 [[nodiscard]] shm::DriveHealth to_shm(master::Health health) noexcept;
+[[nodiscard]] shm::CommTimeout to_shm(const master::CommTimeoutNote& note) noexcept;
 
 }  // namespace drivebus::ipc

@@ -36,6 +36,9 @@ public:
         Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
         who.token = request.lease_token;
         who.pid = request.pid;
+        if (closed_) {
+            return answer(who, shm::Status::BusDown);
+        }
         if (request.kind == shm::RequestKind::Withdraw && shm::compatible(request)) {
             return withdraw(who, route);
         }
@@ -53,31 +56,48 @@ public:
             who.lease_ms = a.lease_ms;
             return answer(who, a.status, shm::RejectReason::None, 0, a.holder);
         }
-        if (admitted->touches_control) {
-            const auto a = leases_.command(who.drive, who, (request.flags & shm::kFlagTakeOver) != 0, now);
-            act(who.drive, a);
-            if (a.status != shm::Status::Ok) {
-                return answer(who, a.status, shm::RejectReason::None, request.start, a.holder);
-            }
-            who.lease_ms = a.lease_ms;
-            who.granted = a.token;  // whatever the bus then answers, the taker learns its token
+        // Every refusal that can be told now comes before the lease: a refused request changes
+        // nothing. What the bus refuses later undoes the lease's grant (finish()).
+        if (request.deadline_ns != 0 && request.deadline_ns <= monotonic_ns(now)) {
+            return answer(who, shm::Status::Expired);
         }
         if (!bus_up) {
             return answer(who, shm::Status::BusDown);
         }
-        const auto id = book_.book(who, std::move(route));
+        // A write under a drive's lease may use the room kept for control (refused the lease,
+        // it leaves the book at once: no flood of refused writes holds that room).
+        const bool control = admitted->touches_control && who.drive != kBroadcast;
+        const auto id = book_.book(who, std::move(route), control ? Room::Control : Room::Shared);
         if (!id) {
             return answer(who, shm::Status::QueueFull);
         }
+        if (admitted->touches_control) {
+            const auto a = leases_.command(who.drive, who, (request.flags & shm::kFlagTakeOver) != 0, now, *id);
+            act(who.drive, a);
+            auto& booked = book_.entry(*id)->origin;
+            if (a.status != shm::Status::Ok) {
+                route = std::move(*book_.finish(*id)->route);
+                return answer(who, a.status, shm::RejectReason::None, request.start, a.holder);
+            }
+            booked.lease_ms = a.lease_ms;
+            booked.granted = a.token;  // whatever the bus then answers, the taker learns its token
+            booked.grant = who.drive != kBroadcast;
+        }
         if (!submit_(master::ClientRequest{request.client, *id, admitted->request,
-                                           request.kind == shm::RequestKind::Probe})) {
+                                           request.kind == shm::RequestKind::Probe, false, false,
+                                           deadline_of(request)})) {
             // Cannot happen while the bus's ring is sized to the limit; answered all the same.
             auto entry = book_.finish(*id);
             route = std::move(*entry->route);
+            settle(*id, entry->origin, false);
             return answer(entry->origin, shm::Status::QueueFull);
         }
         return std::nullopt;
     }
+
+    // drivebusd is stopping and has ended the leases: from now on every request is answered
+    // bus down, so that none takes a lease again or reaches the drive after its fallback.
+    void close() noexcept { closed_ = true; }
 
     // drivebusd's own write (a lease fallback): outside the clients' limit.
     bool submit_own(std::size_t drive, const rtu::RequestAdu& write) {
@@ -99,7 +119,7 @@ public:
     // A fallback's outcome goes to the lease policy (its entry has no route). A withdrawal that
     // came too late is answered Sent, and the entry stays for the request's own result.
     // Nullopt for an id not booked.
-    std::optional<Answer> finish(const master::Finished& f) {
+    std::optional<Answer> finish(const master::Finished& f, bool abandoned = false) {
         if (f.refusal == master::Refusal::NotWithdrawn) {
             auto* e = book_.entry(f.id);
             if (e == nullptr || !e->withdrawal) {
@@ -113,6 +133,8 @@ public:
         if (!entry) {
             return std::nullopt;
         }
+        // Refused by the bus: never sent. Abandoned: perhaps sent (the lease stays, to be safe).
+        settle(f.id, entry->origin, f.refusal == master::Refusal::None || abandoned);
         ++served_;
         if (entry->origin.fallback) {
             act(entry->origin.drive,
@@ -132,7 +154,7 @@ public:
             f.id = id;
             f.refusal = master::Refusal::BusDown;
             f.outcome = master::Outcome::BusDown;
-            if (auto a = finish(f)) {
+            if (auto a = finish(f, true)) {
                 out.push_back(std::move(*a));
             }
         }
@@ -166,6 +188,27 @@ private:
         }
         e->withdrawal = std::move(route);
         return std::nullopt;
+    }
+
+    // A request that took or renewed a lease has been sent, or refused: the grant stands, or
+    // is undone and its answer carries no lease.
+    void settle(std::uint64_t id, Origin& who, bool sent) {
+        if (!who.grant) {
+            return;
+        }
+        act(who.drive, leases_.settle(who.drive, id, sent));
+        if (!sent) {
+            who.lease_ms = 0;
+            who.granted = {};
+        }
+    }
+
+    static std::optional<rtu::Instant> deadline_of(const shm::Request& r) {
+        if (r.deadline_ns == 0) {
+            return std::nullopt;
+        }
+        return rtu::Instant{
+            std::chrono::duration_cast<rtu::Instant::duration>(std::chrono::nanoseconds(r.deadline_ns))};
     }
 
     static shm::Response response_shell(const Origin& who) {
@@ -204,6 +247,7 @@ private:
     std::vector<std::size_t> republish_;
     std::uint64_t served_ = 0;
     std::uint64_t queue_full_ = 0;
+    bool closed_ = false;
 };
 
 }  // namespace drivebus::ipc

@@ -64,8 +64,15 @@ public:
 
     // A write to the drive's command or reference presenting `token`: takes or renews the
     // lease, or refuses when the lease is live under another token and `take_over` is false.
+    // A `grant` id other than 0: the write has not reached the wire yet, and what it took or
+    // renewed stands only once settle() says it went; refused, it is undone.
     LeaseDecision acquire(std::size_t drive, const LeaseToken& token, const Holder& who, bool take_over,
-                          rtu::Instant now);
+                          rtu::Instant now, std::uint64_t grant = 0);
+    // The write of `grant` went to the wire (`sent`: what it took stands), or was refused before
+    // it did: the lease is put back exactly as it was before the grant (holder, token, expiry),
+    // unless something after it has since changed the lease, which then stands. True when the
+    // lease changed.
+    bool settle(std::size_t drive, std::uint64_t grant, bool sent);
     // Renews the live lease held under `token`; refuses otherwise.
     LeaseDecision renew(std::size_t drive, const LeaseToken& token, rtu::Instant now);
     // Gives the lease held under `token` up (no fallback). False otherwise.
@@ -73,9 +80,15 @@ public:
     // Who holds a live lease on some drive under another token than `token` (for broadcasts).
     [[nodiscard]] std::optional<Holder> other_holder(const LeaseToken& token) const;
 
-    // Leases that have run out by `now`; each becomes Expired and is returned once.
+    // Leases that have run out by `now`; each becomes Expired and is returned once. A lease
+    // with a grant not yet settled waits: whether it was renewed is not known yet.
     std::vector<Expiry> expire(rtu::Instant now);
-    // The next expiry, if any lease is held.
+    // drivebusd stops: every lease held ends now, run out or not, as if it had.
+    std::vector<Expiry> end_all(rtu::Instant now);
+    // A lease the last drivebusd held when it ended (lease_record.hpp): Expired now, naming
+    // `who`; its fallback is applied as an expiry's is.
+    void recovered(std::size_t drive, const Holder& who, rtu::Instant now);
+    // The next expiry, if any lease is held (and has no grant unsettled).
     [[nodiscard]] std::optional<rtu::Instant> next_deadline() const;
     // The fallback's write was answered (or not).
     void fallback_result(std::size_t drive, bool ok);
@@ -90,23 +103,37 @@ public:
     void adopt(const HeldLease& lease);
 
 private:
-    struct Lease {
+    // What a grant changes, and what settle() puts back.
+    struct Taken {
         Holder holder;
         LeaseToken token{};  // zero unless Held
         rtu::Instant expires{};
         shm::LeaseState state = shm::LeaseState::Free;
+        std::uint64_t epoch = 0;  // which change made this state (unique per table)
+    };
+    struct Grant {
+        std::uint64_t id = 0;
+        Taken before;                   // the lease as the grant found it
+        std::uint64_t epoch_after = 0;  // the change the grant made
+    };
+    struct Lease : Taken {
         rtu::Duration duration{};
         config::LeaseFallback fallback = config::LeaseFallback::Hold;
         bool fallback_ok = false;
         rtu::Instant expired{};
         std::uint64_t expiries = 0;
+        std::vector<Grant> unsettled;  // in the order granted
     };
+    // A change to `l`: a new epoch.
+    void changed(Lease& l) noexcept { l.epoch = ++epochs_; }
     [[nodiscard]] static bool held_under(const Lease& l, const LeaseToken& token);
     [[nodiscard]] LeaseToken token_for(const LeaseToken& presented);
+    void end(std::size_t drive, rtu::Instant now);
 
     std::vector<Lease> leases_;
     TokenSource tokens_;
     std::uint64_t expiries_ = 0;
+    std::uint64_t epochs_ = 0;
 };
 
 }  // namespace drivebus::ipc

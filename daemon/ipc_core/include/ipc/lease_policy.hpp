@@ -11,6 +11,7 @@
 
 #include "config/config.hpp"
 #include "ipc/lease.hpp"
+#include "ipc/lease_record.hpp"
 #include "ipc/pending.hpp"
 #include "log/log.hpp"
 #include "master/result.hpp"
@@ -47,6 +48,12 @@ struct CarriedLease {
     HeldLease lease;
 };
 
+// What a starting drivebusd makes of the leases its predecessor left recorded.
+struct Recovery {
+    std::vector<FallbackAction> fallbacks;
+    std::vector<Note> notes;  // drives no longer configured, and what the file was
+};
+
 class LeasePolicy {
 public:
     LeasePolicy(const config::BusConfig& bus, TokenSource tokens);
@@ -54,13 +61,32 @@ public:
     // A write that touches a command or reference register of `drive` (kBroadcast: a
     // broadcast, refused while any drive's lease is held under another token than the one
     // `who` presents). `who` presents its token; its name and pid are only for display.
-    LeaseAction command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now);
+    // `grant` (other than 0): the write has yet to reach the wire; settle() says whether it did.
+    LeaseAction command(std::size_t drive, const Origin& who, bool take_over, rtu::Instant now,
+                        std::uint64_t grant = 0);
+    // The write of `grant` reached the wire (`sent`), or was refused before it did: then what it
+    // took or renewed is undone, the former holder included (see LeaseTable::settle).
+    LeaseAction settle(std::size_t drive, std::uint64_t grant, bool sent);
     LeaseAction renew(std::size_t drive, const Origin& who, rtu::Instant now);
     LeaseAction release(std::size_t drive, const Origin& who);
     // Leases run out by `now`, each with what to write to its drive.
     std::vector<FallbackAction> expire(rtu::Instant now);
     // The bus answered a fallback write.
     LeaseAction fallback_done(std::size_t drive, master::Outcome outcome, bool refused);
+
+    // drivebusd stops (or a reload drops the bus): every lease held ends now, each with what
+    // to write to its drive before the line is let go.
+    std::vector<FallbackAction> surrender(rtu::Instant now);
+    // drivebusd starts: every lease `record` names on a drive still configured was held when
+    // the last drivebusd ended, and gets that drive's fallback as configured now (Expired,
+    // naming its last holder), before anything else goes to the drive.
+    Recovery recover(const ReadLeaseRecord& record, rtu::Instant now);
+    // What to keep in the bus's lease record now: the leases held, and those whose fallback
+    // write has not been answered yet. Changes with each grant, take-over, release, expiry and
+    // fallback answer; never with a renewal.
+    [[nodiscard]] std::vector<RecordedLease> record() const;
+    // Whether a fallback write is still unanswered.
+    [[nodiscard]] bool fallbacks_pending() const;
 
     [[nodiscard]] std::optional<rtu::Instant> next_deadline() const { return table_.next_deadline(); }
     [[nodiscard]] shm::LeaseStatus status(std::size_t drive) const { return table_.status(drive); }
@@ -76,8 +102,11 @@ public:
 private:
     [[nodiscard]] std::string where(std::size_t drive) const;
     [[nodiscard]] std::string name(std::size_t drive) const;
+    [[nodiscard]] std::optional<rtu::RequestAdu> fallback_write(std::size_t drive) const;
+    FallbackAction fallback(std::size_t drive, Note note);
     const config::BusConfig& bus_;
     LeaseTable table_;
+    std::vector<bool> pending_;  // by drive: a fallback write submitted and not answered
 };
 
 }  // namespace drivebus::ipc

@@ -5,8 +5,15 @@
 // entry leaves by finish(), when the bus hands back its result or its refusal: each request
 // gets exactly one answer, and the book returns to empty. Pure; `Route` is whatever the
 // caller needs to answer (an iceoryx request header), opaque here.
+//
+// Within the limit, no flood can lock control out: a quarter of it (the control room) is kept
+// for writes to a drive's command or reference under its lease (Room::Control), which every
+// other request (reads, other writes) cannot take; and one client holds at most a share of
+// what is left (a quarter of it, at least 4 or all of it), so readers cannot take it all
+// between two of them either.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -18,6 +25,9 @@
 #include "ipc/admission.hpp"
 
 namespace drivebus::ipc {
+
+// Which room a request may use: Control, the whole limit; Shared, what the control room leaves.
+enum class Room : std::uint8_t { Shared, Control };
 
 // Who asked, and what the answer must carry.
 struct Origin {
@@ -31,6 +41,8 @@ struct Origin {
     shm::LeaseToken token{};    // the lease token the request presents
     std::int32_t pid = 0;       // the client's, as it says
     shm::LeaseToken granted{};  // the request took a lease: its token, for this answer alone
+    bool grant = false;         // it took or renewed a lease that stands only once it is sent
+    Room room = Room::Shared;   // the book's: which room it was booked in
 };
 
 template <typename Route>
@@ -43,15 +55,26 @@ public:
         bool withdrawal_asked = false;    // one per request: the rings hold one withdrawal each
     };
 
-    explicit PendingBook(std::size_t limit) : limit_(limit) {}
+    explicit PendingBook(std::size_t limit)
+        : limit_(limit),
+          shared_room_(limit - limit / 4),
+          share_(std::max(shared_room_ / 4, std::min<std::size_t>(shared_room_, 4))) {}
 
-    // A client request: its id for the bus, or nullopt when `limit` are already in flight
-    // (answer QueueFull).
-    std::optional<std::uint64_t> book(Origin origin, Route route) {
-        if (clients_ >= limit_) {
+    // A client request: its id for the bus, or nullopt when there is no room for it (answer
+    // QueueFull): `limit` in flight, the shared room full (Room::Shared), or its client's share
+    // taken.
+    std::optional<std::uint64_t> book(Origin origin, Route route, Room room = Room::Shared) {
+        auto& mine = per_client_[origin.client];
+        if (clients_ >= limit_ || (room == Room::Shared && shared_ >= shared_room_) || mine >= share_) {
+            if (mine == 0) {
+                per_client_.erase(origin.client);
+            }
             return std::nullopt;
         }
         ++clients_;
+        ++mine;
+        origin.room = room;
+        shared_ += room == Room::Shared ? 1 : 0;
         return add(Entry{std::move(origin), std::move(route), std::nullopt, false});
     }
     // drivebusd's own (a lease fallback): outside the clients' limit; the bus sizes its rings
@@ -70,6 +93,10 @@ public:
         entries_.erase(it);
         if (!e.origin.fallback) {
             --clients_;
+            shared_ -= e.origin.room == Room::Shared ? 1 : 0;
+            if (const auto c = per_client_.find(e.origin.client); c != per_client_.end() && --c->second == 0) {
+                per_client_.erase(c);
+            }
         }
         return e;
     }
@@ -100,6 +127,9 @@ public:
     }
     [[nodiscard]] std::size_t clients_in_flight() const noexcept { return clients_; }
     [[nodiscard]] std::size_t limit() const noexcept { return limit_; }
+    // What Room::Shared requests may fill, and what one client may hold.
+    [[nodiscard]] std::size_t shared_room() const noexcept { return shared_room_; }
+    [[nodiscard]] std::size_t share() const noexcept { return share_; }
 
 private:
     std::uint64_t add(Entry e) {
@@ -109,7 +139,11 @@ private:
     }
 
     std::size_t limit_;
+    std::size_t shared_room_;
+    std::size_t share_;
     std::size_t clients_ = 0;
+    std::size_t shared_ = 0;                                     // client requests in the shared room
+    std::unordered_map<std::uint64_t, std::size_t> per_client_;  // in flight, by client
     std::uint64_t next_id_ = 1;
     std::unordered_map<std::uint64_t, Entry> entries_;
 };

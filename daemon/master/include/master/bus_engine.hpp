@@ -39,6 +39,12 @@ public:
     void line_up(rtu::Instant now);
     void line_down(rtu::Instant now);
     [[nodiscard]] bool up() const noexcept { return up_; }
+    // drivebusd stops: the clients' waiting requests are answered bus down, and only the lease
+    // fallbacks are sent from now on (Scheduler::wind_down()).
+    void wind_down(rtu::Instant now);
+    [[nodiscard]] bool winding_down() const noexcept { return scheduler_.winding_down(); }
+    // The bus thread reopened the port of a line that heard nothing (master/mute_watch.hpp).
+    void count_mute_reopen() noexcept { ++status_.counters.mute_reopens; }
 
     // What one read() returned (PARMRK-marked), at its read time.
     void on_bytes(std::span<const std::uint8_t> bytes, rtu::Instant read_time);
@@ -86,9 +92,13 @@ public:
     [[nodiscard]] rtu::Duration late_horizon(rtu::SlaveAddress address) const noexcept { return horizon_[address]; }
 
 private:
+    void fail_client_jobs(rtu::Instant now);
+    void publish(std::size_t drive);
     void take_events(rtu::Instant now);
     void finish_if_done(rtu::Instant now);
     void finish_probe(const Result& probe, rtu::Instant now);
+    void expire_clients(rtu::Instant now);
+    void report_expired(const Job& job, rtu::Instant now);
     void complete(const Job& job, const Result& result, rtu::Instant now);
     // The job to start now: the one a sync probe went ahead of, or the scheduler's next.
     [[nodiscard]] std::optional<Job> next_job(rtu::Instant now);

@@ -55,6 +55,10 @@ struct DrivePlan {
     // when it does not, drivebusd applies `fallback` (through the master, as a write).
     Duration lease = std::chrono::seconds(1);
     LeaseFallback fallback = LeaseFallback::Hold;
+    // The drive's own Modbus time-out (its profile's [safety] comm_timeout, ATV21: F803) that
+    // drivebusd writes when the drive comes online, only if it holds another value; read back.
+    // Absent: read and judged, never written (master/comm_timeout.hpp).
+    std::optional<Duration> comm_timeout;
 };
 
 struct BusPlan {

@@ -23,6 +23,7 @@ enum class Refusal : std::uint8_t {
     BlockUnconfirmed,
     BusDown,    // the line is not open, or went down while the request waited
     Withdrawn,  // withdrawn by its client before it reached the wire
+    Expired,    // its deadline passed before it reached the wire
     // Not an end: a withdrawal came too late, the request has reached the wire (or finished);
     // its own result comes (or came) apart.
     NotWithdrawn,
@@ -50,6 +51,9 @@ static_assert(std::is_trivially_copyable_v<ClientRequest>);
     f.attempts = static_cast<std::uint8_t>(std::min(result.attempts, 255U));
     f.finished = result.finished;
     f.late_latency = result.late_latency;
+    if (result.unsent) {  // never sent: refused, whatever it would have been
+        f.refusal = result.outcome == Outcome::Expired ? Refusal::Expired : Refusal::BusDown;
+    }
     if (const auto code = result.exception()) {
         f.exception = static_cast<std::uint8_t>(*code);
     }

@@ -19,6 +19,7 @@ enum class Outcome : std::uint8_t {
     EchoMismatch,  // the last attempt's echo differed from what was sent: a collision
     BusDown,       // the line is not open
     Late,          // every attempt timed out, and the slave's replies came after it
+    Expired,       // a client request whose deadline passed before it could be sent: never sent
 };
 
 [[nodiscard]] std::string_view to_string(Outcome outcome) noexcept;
@@ -37,6 +38,8 @@ struct Result {
     // For a reply after a time-out: how late it would be as the reply to the first attempt
     // that timed out (the same request, so the same bytes: it may well be that one's).
     rtu::Duration possible_latency{};
+    // Never reached the wire (expired, or the line went down while it waited).
+    bool unsent = false;
 
     [[nodiscard]] std::optional<rtu::ExceptionCode> exception() const noexcept {
         if (response) {

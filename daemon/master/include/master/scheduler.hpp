@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "master/bus_plan.hpp"
+#include "master/comm_timeout.hpp"
 #include "master/result.hpp"
 #include "master/setup_plan.hpp"
 #include "master/snapshot.hpp"
@@ -20,7 +21,8 @@
 
 namespace drivebus::master {
 
-enum class JobKind : std::uint8_t { Setup, Client, Poll, KeepAlive, Probe };
+// Check: the drive's own Modbus time-out read (and written) when it comes online.
+enum class JobKind : std::uint8_t { Setup, Client, Poll, KeepAlive, Probe, Check };
 
 // A register window read in one transaction; for an indirect block, `addresses` are the
 // registers its slots hold.
@@ -41,6 +43,8 @@ struct ClientRequest {
     bool fallback = false;
     // Not a request: withdraws the one with this correlation if it is still waiting.
     bool withdraw = false;
+    // Not on the wire by then: dropped and answered expired, never sent late.
+    std::optional<rtu::Instant> deadline{};
 };
 
 struct Job {
@@ -51,9 +55,10 @@ struct Job {
     std::uint64_t client = 0;
     std::uint64_t correlation = 0;
     rtu::RequestAdu request;
-    std::optional<unsigned> retries;        // overrides the bus setting (probes: none)
-    std::optional<rtu::Instant> scheduled;  // a poll cycle's first request: when its period made it due
-    bool fallback = false;                  // drivebusd's lease fallback (a client job of its own)
+    std::optional<unsigned> retries;         // overrides the bus setting (probes: none)
+    std::optional<rtu::Instant> scheduled;   // a poll cycle's first request: when its period made it due
+    bool fallback = false;                   // drivebusd's lease fallback (a client job of its own)
+    std::optional<rtu::Instant> deadline{};  // a client's: not sent after it
 };
 inline constexpr std::size_t kNoDrive = static_cast<std::size_t>(-1);
 
@@ -82,9 +87,18 @@ public:
     // Empties the client queues and returns what they held (the line went down: each waiting
     // request is answered now rather than sent whenever the line comes back).
     [[nodiscard]] std::vector<Job> take_client_jobs();
+    // drivebusd stops: from now on only the lease fallbacks go out (no poll, set-up, keep-alive
+    // or probe), and the line is let go once they are answered.
+    void wind_down() noexcept { fallbacks_only_ = true; }
+    [[nodiscard]] bool winding_down() const noexcept { return fallbacks_only_; }
     // Takes the waiting client request `correlation` out of its queue: false when it is not
     // waiting (taken for the wire, finished, or never queued).
     bool withdraw(std::uint64_t correlation);
+    // Takes out of the queues the client requests whose deadline has passed by `now`: they are
+    // never sent. The list is valid until the next call (its room is kept: no allocation).
+    [[nodiscard]] const std::vector<Job>& expire(rtu::Instant now);
+    // The earliest deadline of a waiting client request.
+    [[nodiscard]] std::optional<rtu::Instant> next_deadline() const;
 
     [[nodiscard]] std::size_t drive_count() const noexcept { return drives_.size(); }
     // Fills `out` without allocating (the bus thread calls it every poll cycle).
@@ -137,6 +151,7 @@ private:
         DriveCounters counters;
         std::uint64_t sequence = 0;
         std::optional<Job> fallback;  // sent before anything else on the bus
+        CommTimeoutCheck comm;        // its own Modbus time-out, read when it comes online
     };
 
     [[nodiscard]] std::optional<Job> next_client_read();
@@ -148,6 +163,9 @@ private:
     void setup_failed(std::size_t drive, rtu::Instant now, SetupState state);
     // A set-up step finished; returns the drive if its health changed.
     std::optional<std::size_t> setup_step(const Job& job, const Result& result, rtu::Instant now);
+    [[nodiscard]] std::optional<Job> next_check();
+    // A step of a drive's time-out check finished; returns the drive when the check did.
+    std::optional<std::size_t> check_step(const Job& job, const Result& result);
     [[nodiscard]] bool through_block(std::size_t drive, const rtu::RequestAdu& request) const noexcept;
     void watch_fault(std::size_t drive, const ReadChunk& chunk, const Result& result);
     [[nodiscard]] std::optional<Job> next_poll(rtu::Instant now);
@@ -161,12 +179,14 @@ private:
     const BusPlan& bus_;
     std::vector<Drive> drives_;
     bool line_up_ = true;
+    bool fallbacks_only_ = false;
     // Client queues per client, writes and reads apart; served round-robin.
     std::map<std::uint64_t, std::deque<Job>> writes_;
     std::map<std::uint64_t, std::deque<Job>> reads_;
     std::uint64_t last_client_ = 0;
     bool last_was_read_ = false;  // the last job was a client read: a due poll goes next
     std::size_t queued_ = 0;
+    std::vector<Job> expired_;  // expire()'s answer
 };
 
 // The read transactions a poll group needs, within the drive's limits.

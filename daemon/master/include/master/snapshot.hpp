@@ -40,6 +40,36 @@ struct SetupNote {
     std::uint8_t exception = 0;
 };
 
+// The drive's own Modbus time-out (its profile's [safety]) as drivebusd found it when the drive
+// came online (master/comm_timeout.hpp).
+struct CommTimeoutNote {
+    enum class State : std::uint8_t {
+        Unknown,       // the profile names none, or it has not been read since the drive came online
+        Read,          // `raw` is what the drive holds
+        Written,       // drivebusd wrote `wanted`, and it reads back
+        ReadRefused,   // reading it got exception `exception` (0: no valid reply)
+        WriteRefused,  // writing `wanted` got exception `exception` (0: no valid reply); `raw` as read before
+        ReadBack,      // written `wanted`, it reads `raw`
+    };
+    enum class Verdict : std::uint8_t {
+        None,     // not known
+        Fine,     // on, and longer than `gap`
+        Off,      // off: when the line or drivebusd dies, the drive runs on at its last command
+        MayFire,  // not longer than `gap` (or nothing bounds the gap): the drive may trip while all is well
+    };
+    State state = State::Unknown;
+    Verdict verdict = Verdict::None;
+    std::uint8_t exception = 0;
+    bool action_read = false;  // `action` holds the fault behaviour register (ATV21: F603)
+    std::uint16_t raw = 0;
+    std::uint16_t action = 0;
+    std::optional<std::uint16_t> wanted;  // the configured comm_timeout, in raw counts
+    std::uint32_t timeout_ms = 0;         // `raw` in milliseconds; 0: off
+    std::uint32_t wanted_ms = 0;          // `wanted` in milliseconds; 0: none
+    // The longest drivebusd may leave between two requests to the drive; absent: nothing bounds it.
+    std::optional<rtu::Duration> gap;
+};
+
 struct RegisterValue {
     std::uint16_t value = 0;
     bool valid = false;
@@ -122,6 +152,7 @@ struct DriveSnapshot {
     DriveCounters counters;
     std::uint64_t sequence = 0;  // the drive's completed poll cycles and absences, as the scheduler counts them
     SetupNote setup;             // Unconfigured, AwaitingReset: why
+    CommTimeoutNote comm_timeout;
 };
 static_assert(std::is_trivially_copyable_v<DriveSnapshot>);
 
@@ -158,6 +189,7 @@ struct BusCounters {
     std::uint64_t late_replies = 0;  // replies after their attempt timed out: discarded
     std::uint64_t held_replies = 0;  // replies whose delivery was held back and still completed
     std::uint64_t sync_probes = 0;   // requests sent to prove a slave in step (master/reply_ledger.hpp)
+    std::uint64_t mute_reopens = 0;  // the port reopened because the open line heard nothing (mute_watch.hpp)
     std::array<std::uint64_t, 12> exceptions{};
 };
 
@@ -182,7 +214,8 @@ struct BusCounters {
     X(line_down) \
     X(late_replies) \
     X(held_replies) \
-    X(sync_probes)
+    X(sync_probes) \
+    X(mute_reopens)
 // clang-format on
 #define DRIVEBUS_MASTER_COUNT_ONE(name) +1
 static_assert(sizeof(BusCounters) ==

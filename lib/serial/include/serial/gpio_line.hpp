@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cerrno>
 #include <expected>
 #include <filesystem>
 #include <memory>
@@ -33,6 +34,24 @@ namespace drivebus::serial {
     }
     std::ranges::sort(chips);
     return chips;
+}
+
+// "no such GPIO chip (there are gpiochip0, gpiochip1)", or that the machine has none.
+[[nodiscard]] inline std::string no_such_chip(const std::vector<std::string>& chips) {
+    if (chips.empty()) {
+        return "no such GPIO chip (no /dev/gpiochip* on this machine)";
+    }
+    std::string list;
+    for (const auto& name : chips) {
+        list += (list.empty() ? "" : ", ") + name;
+    }
+    return "no such GPIO chip (there are " + list + ")";
+}
+
+// Whether opening a chip failed because there is none by that name (ENOENT), or it is not a
+// GPIO chip (ENODEV, ENOTTY: /dev/null, a regular file): a configuration error, not a fault.
+[[nodiscard]] inline bool is_no_chip(int error) {
+    return error == ENOENT || error == ENODEV || error == ENOTTY;
 }
 
 // Opens the chip (by name, path, label or number), requests the line as an output of

@@ -4,9 +4,11 @@
 //   {"id": "c-17", "registers": {"FA01": 40.0, "FA00": {"raw": 50176}}}
 //   {"id": 18, "frequency": 40.0, "verb": "run"}
 //   {"id": "hb-1", "verb": "heartbeat"}
+//   {"id": 19, "verb": "run", "sent_at": "2026-12-03T14:05:00.120Z", "max_age": "2s"}
 //
 // Register values are engineering values (the profile's unit and scale) or {"raw": word}.
-// The result, on .../result, echoes the id (docs/mqtt.md).
+// The result, on .../result, echoes the id (docs/mqtt.md). not_after, max_age and sent_at limit
+// how late a command may act (mqtt/freshness.hpp).
 #pragma once
 
 #include <cstdint>
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "drivebus/profile.hpp"
+#include "mqtt/freshness.hpp"
 #include "mqtt/payload.hpp"
 
 namespace drivebus::mqtt {
@@ -34,6 +37,7 @@ struct Command {
     std::vector<RegisterValue> registers;
     std::optional<double> frequency;
     Verb verb = Verb::None;
+    Freshness freshness;
 };
 
 struct CommandError {

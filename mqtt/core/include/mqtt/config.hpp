@@ -38,6 +38,9 @@ struct Limits {
     std::size_t command_queue = 32;      // commands waiting to be carried out; more: refused at once
     std::size_t max_payload = 4096;      // bytes of a command; larger: refused
     std::size_t results_in_flight = 64;  // QoS 1 results the broker has not acknowledged; more: dropped
+    // The oldest a command may be when it acts (its max_age may shorten it): older, it is
+    // refused as expired. Its age counts from its sent_at when it gives one, else from its arrival.
+    Duration max_command_age = std::chrono::seconds(10);
 };
 
 struct DriveSettings {

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// libgpiod 1.6 C++ bindings (gpiod.hpp). They report failures by throwing std::system_error
-// (errno) or std::out_of_range; nothing leaves this file as an exception.
+// The gpio line through libgpiod 1.6's C++ bindings (Debian 12); gpio_line_gpiod2.cpp is the
+// libgpiod 2 one (lib/serial/CMakeLists.txt picks one). The bindings report failures by
+// throwing std::system_error (errno) or std::out_of_range; no exception leaves this file.
 #include <gpiod.hpp>
 
-#include <cerrno>
 #include <exception>
 #include <system_error>
 
@@ -49,14 +49,6 @@ private:
     gpiod::line line_;
 };
 
-std::string chip_list(const std::vector<std::string>& chips) {
-    std::string list;
-    for (const auto& name : chips) {
-        list += (list.empty() ? "" : ", ") + name;
-    }
-    return list;
-}
-
 }  // namespace
 
 std::expected<std::unique_ptr<OutputLine>, DirectionError> open_gpio_line(const GpioOptions& options) {
@@ -68,11 +60,8 @@ std::expected<std::unique_ptr<OutputLine>, DirectionError> open_gpio_line(const 
         // OPEN_LOOKUP: a label, a name ("gpiochip0"), a path ("/dev/gpiochip0") or a number.
         chip.open(options.chip, gpiod::chip::OPEN_LOOKUP);
     } catch (const std::system_error& e) {
-        if (e.code().value() == ENOENT || e.code().value() == ENODEV) {
-            const auto chips = gpio_chips();
-            return fail(chips.empty() ? std::string("no such GPIO chip (no /dev/gpiochip* on this machine)")
-                                      : "no such GPIO chip (there are " + chip_list(chips) + ")",
-                        true);
+        if (is_no_chip(e.code().value())) {
+            return fail(no_such_chip(gpio_chips()), true);
         }
         return fail(std::string("cannot open the chip: ") + e.code().message());
     } catch (const std::exception& e) {

@@ -1,0 +1,60 @@
+// SPDX-License-Identifier: Apache-2.0
+// Locks that a killed process left held in iceoryx's shared memory, freed.
+//
+// iceoryx 2.0 guards each port's queue and distributor with a process-shared, recursive pthread
+// mutex that is not robust. A client SIGKILLed inside send() keeps its own distributor's lock,
+// and often the lock of the server's request queue it was pushing into, for good: every other
+// client's send() then waits on it, and so does RouDi's clean-up of the dead client (its
+// monitoring thread, then every runtime's registration behind it). iceoryx 2.0 knows
+// ("CHUNK_DISTRIBUTOR_CLEANUP_DEADLOCK_BECAUSE_BAD_APPLICATION_TERMINATION") and offers no cure.
+//
+// The mutexes are glibc's: a held one names its owner thread. A lock whose owner thread has
+// ended, seen so on two sweeps in a row, is handed back as that thread's unlock would have
+// done, and its waiters are woken. Only the process that holds RouDi (an embedded RouDi) can
+// reach every port; an external iox-roudi gets no such help.
+#pragma once
+
+#include <pthread.h>
+#include <sys/types.h>
+
+#include <cstddef>
+#include <functional>
+#include <map>
+#include <span>
+#include <vector>
+
+namespace iox::roudi {
+class PortPool;
+}
+
+namespace drivebus::ipc {
+
+// Whether thread `tid` exists and has not ended (a zombie has). In doubt (its /proc entry
+// hidden), alive.
+[[nodiscard]] bool thread_alive(pid_t tid);
+
+// The holder of `mutex` when it is held and names one; 0 otherwise.
+[[nodiscard]] pid_t lock_holder(const pthread_mutex_t& mutex);
+
+// Frees `mutex`, held by a thread that has ended: what its unlock would have done (owner,
+// recursion count and users cleared, the lock word released), then wakes every waiter.
+void free_abandoned(pthread_mutex_t& mutex);
+
+class HeldLockReaper {
+public:
+    using Alive = std::function<bool(pid_t)>;
+    explicit HeldLockReaper(Alive alive = thread_alive) : alive_(std::move(alive)) {}
+
+    // One pass over `locks`: frees those held by the same ended thread as on the last pass.
+    // Returns how many it freed.
+    std::size_t sweep(std::span<pthread_mutex_t* const> locks);
+
+private:
+    Alive alive_;
+    std::map<const pthread_mutex_t*, pid_t> suspects_;  // held by an ended thread last pass
+};
+
+// Every lock of every port RouDi's port pool holds (clients, servers, publishers, subscribers).
+[[nodiscard]] std::vector<pthread_mutex_t*> port_locks(iox::roudi::PortPool& pool);
+
+}  // namespace drivebus::ipc

@@ -1,0 +1,209 @@
+// SPDX-License-Identifier: Apache-2.0
+// The lease record and what the lease policy makes of it (docs/ipc.md, "Expiry and the
+// fallback"): which leases are kept, read back however damaged, and how a stop and a start
+// turn them into fallbacks. Pure: no file, no RouDi, time as an argument.
+#include <gtest/gtest.h>
+
+#include "config/config.hpp"
+#include "ipc/intake_core.hpp"
+#include "ipc/lease_policy.hpp"
+#include "ipc/lease_record.hpp"
+
+namespace drivebus::ipc {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr std::string_view kConfig = R"([[bus]]
+name = "line1"
+device = "/dev/ttyUSB0"
+parity = "none"
+  [[bus.drive]]
+  name = "pump"
+  address = 1
+  profile = "atv21"
+  lease = "500ms"
+  fallback = "stop"
+  [[bus.drive]]
+  name = "fan"
+  address = 2
+  profile = "atv58"
+)";
+
+config::BusConfig bus() {
+    config::LoadOptions options;
+    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
+    auto c = config::parse_config(kConfig, "test.toml", options);
+    if (!c) {
+        ADD_FAILURE() << c.error().message;
+        return {};
+    }
+    return c->buses.at(0);
+}
+
+TokenSource counting_tokens() {
+    return [n = std::uint64_t{0}]() mutable { return LeaseToken{++n, 0x5A5A5A5A5A5A5A5AULL}; };
+}
+
+Origin client(std::string name, std::uint64_t id) {
+    Origin o{1, id, std::move(name), shm::RequestKind::Write, 0};
+    o.pid = static_cast<std::int32_t>(id);
+    return o;
+}
+
+const rtu::Request kStop = rtu::WriteSingleRegister{0xFA00, 0xC000};
+
+TEST(LeaseRecord, WritesAndReadsBackWhatItKeeps) {
+    const std::vector<RecordedLease> leases = {
+        {"pump", 1, config::LeaseFallback::Stop, "pump-control[12]"},
+        {"fan", 2, config::LeaseFallback::Hold, "a b\nc"},  // a holder's name is the client's own word
+    };
+    const auto text = format_lease_record(leases);
+    EXPECT_EQ(text, "drivebus-leases 1\nlease pump 1 stop pump-control[12]\nlease fan 2 hold a b?c\n");
+    const auto read = parse_lease_record(text);
+    EXPECT_TRUE(read.problems.empty());
+    ASSERT_EQ(read.leases.size(), 2U);
+    EXPECT_EQ(read.leases[0], leases[0]);
+    EXPECT_EQ(read.leases[1].holder, "a b?c");
+    EXPECT_TRUE(parse_lease_record(format_lease_record({})).leases.empty());
+    EXPECT_TRUE(parse_lease_record(format_lease_record({})).problems.empty());
+}
+
+// Whatever is damaged, every line that names a drive still counts: its fallback comes from the
+// configuration, not from the file.
+TEST(LeaseRecord, ADamagedFileIsReadAsFarAsItCanBe) {
+    const auto read =
+        parse_lease_record("drivebus-leases 7\nlease pump\nnonsense here\nlease fan 300 sideways x\nlease");
+    ASSERT_EQ(read.leases.size(), 2U);
+    EXPECT_EQ(read.leases[0].drive, "pump");
+    EXPECT_FALSE(read.leases[0].address.has_value());
+    EXPECT_EQ(read.leases[1].drive, "fan");
+    EXPECT_FALSE(read.leases[1].address.has_value()) << "300 is no slave address";
+    EXPECT_FALSE(read.leases[1].fallback.has_value());
+    const std::vector<std::string> problems = {"line 1 is not \"drivebus-leases 1\"", "line 2 (drive pump) is damaged",
+                                               "line 3 is not a lease", "line 4 (drive fan) is damaged",
+                                               "line 5 names no drive"};
+    EXPECT_EQ(read.problems, problems);
+    EXPECT_EQ(parse_lease_record("").problems, std::vector<std::string>{"it is empty"});
+    EXPECT_TRUE(parse_lease_record("\x7f\x01\xff garbage").leases.empty());
+    // The header's line may itself be a lease (a file cut at its start).
+    EXPECT_EQ(parse_lease_record("lease pump 1 stop x\n").leases.size(), 1U);
+}
+
+// The record follows who holds what: a grant, a take-over, a release, an expiry and a fallback's
+// answer change it; a renewal does not.
+TEST(LeaseRecord, ThePolicyKeepsTheHeldLeasesAndTheUnansweredFallbacks) {
+    const auto b = bus();
+    LeasePolicy p(b, counting_tokens());
+    const rtu::Instant t0{};
+    EXPECT_TRUE(p.record().empty());
+    auto a = client("a", 11);
+    a.token = p.command(0, a, false, t0).token;
+    const std::vector<RecordedLease> held_by_a = {{"pump", 1, config::LeaseFallback::Stop, "a"}};
+    EXPECT_EQ(p.record(), held_by_a);
+    (void)p.command(0, a, false, t0 + 100ms);
+    (void)p.renew(0, a, t0 + 200ms);
+    EXPECT_EQ(p.record(), held_by_a) << "renewals leave it as it was";
+    auto other = client("b", 22);
+    other.token = p.command(0, other, true, t0 + 300ms).token;
+    EXPECT_EQ(p.record().at(0).holder, "b") << "taken over";
+    EXPECT_EQ(p.release(0, other).status, shm::Status::Ok);
+    EXPECT_TRUE(p.record().empty());
+    a.token = p.command(0, a, false, t0 + 1s).token;
+    const auto expired = p.expire(t0 + 2s);
+    ASSERT_EQ(expired.size(), 1U);
+    EXPECT_EQ(p.record(), held_by_a) << "run out, its fallback not yet answered";
+    EXPECT_TRUE(p.fallbacks_pending());
+    (void)p.fallback_done(0, master::Outcome::Timeout, false);
+    EXPECT_TRUE(p.record().empty()) << "answered (even failed): nothing left to apply";
+    EXPECT_FALSE(p.fallbacks_pending());
+}
+
+// drivebusd stops: every lease held ends now, with its fallback, whatever its deadline.
+TEST(LeaseRecord, ASurrenderEndsEveryHeldLeaseWithItsFallback) {
+    const auto b = bus();
+    LeasePolicy p(b, counting_tokens());
+    const rtu::Instant t0{};
+    auto a = client("a", 11);
+    a.token = p.command(0, a, false, t0).token;
+    auto f = client("f", 12);
+    f.drive = 1;
+    f.token = p.command(1, f, false, t0).token;
+    const auto ends = p.surrender(t0 + 10ms);
+    ASSERT_EQ(ends.size(), 2U);
+    ASSERT_TRUE(ends[0].write.has_value());
+    EXPECT_EQ(ends[0].write->pdu, kStop);
+    EXPECT_NE(ends[0].note.text.find("drivebusd is stopping: the control lease of a ends; fallback: stop"),
+              std::string::npos)
+        << ends[0].note.text;
+    EXPECT_FALSE(ends[1].write.has_value()) << "the fan holds";
+    EXPECT_EQ(p.status(0).state, shm::LeaseState::Expired);
+    EXPECT_EQ(p.renew(0, a, t0 + 20ms).status, shm::Status::NotPermitted);
+    EXPECT_EQ(p.record().size(), 1U) << "the pump's stop word is on its way";
+    (void)p.fallback_done(0, master::Outcome::Ok, false);
+    EXPECT_TRUE(p.record().empty());
+    EXPECT_TRUE(p.surrender(t0 + 30ms).empty());
+}
+
+// drivebusd starts: each drive the record names gets its fallback as configured now, and its
+// lease is published expired, naming the holder; a drive no longer configured is a line.
+TEST(LeaseRecord, ARecoveryAppliesTheConfiguredFallbackOfEachRecordedDrive) {
+    const auto b = bus();
+    LeasePolicy p(b, counting_tokens());
+    const rtu::Instant t0{};
+    ReadLeaseRecord read;
+    read.leases = {{"pump", 7, config::LeaseFallback::Hold, "pump-control[99]"},
+                   {"gone", 3, config::LeaseFallback::Stop, "x"},
+                   {"pump", 1, config::LeaseFallback::Stop, "twice"}};
+    read.problems = {"line 9 is not a lease"};
+    const auto r = p.recover(read, t0);
+    ASSERT_EQ(r.fallbacks.size(), 1U);
+    EXPECT_EQ(r.fallbacks[0].drive, 0U);
+    ASSERT_TRUE(r.fallbacks[0].write.has_value()) << "stop as configured now, not hold as recorded";
+    EXPECT_EQ(r.fallbacks[0].write->address, 1) << "at the configured address";
+    EXPECT_EQ(r.fallbacks[0].write->pdu, kStop);
+    EXPECT_EQ(r.fallbacks[0].note.level, log::Level::Warning);
+    EXPECT_NE(r.fallbacks[0].note.text.find("the lease of pump-control[99] was held when drivebusd last stopped; "
+                                            "applying its fallback: stop (recorded at address 7, configured at 1 now)"),
+              std::string::npos)
+        << r.fallbacks[0].note.text;
+    ASSERT_EQ(r.notes.size(), 2U);
+    EXPECT_NE(r.notes[0].text.find("lease record: line 9 is not a lease"), std::string::npos) << r.notes[0].text;
+    EXPECT_NE(r.notes[1].text.find("drive gone"), std::string::npos) << r.notes[1].text;
+    EXPECT_EQ(p.status(0).state, shm::LeaseState::Expired);
+    EXPECT_EQ(shm::view(p.status(0).holder), "pump-control[99]");
+    EXPECT_EQ(p.status(0).expiries, 1U);
+    // Kept until the drive answers, so that a drivebusd killed meanwhile applies it again.
+    EXPECT_EQ(p.record().size(), 1U);
+    (void)p.fallback_done(0, master::Outcome::Ok, false);
+    EXPECT_TRUE(p.record().empty());
+    EXPECT_EQ(p.status(0).fallback_ok, 1);
+    // Nothing recorded: nothing applied.
+    LeasePolicy q(b, counting_tokens());
+    EXPECT_TRUE(q.recover({}, t0).fallbacks.empty());
+}
+
+// A stopping drivebusd's intake answers every request bus down: none takes the lease again.
+TEST(LeaseRecord, AClosedIntakeTakesNoLeaseAndSendsNothing) {
+    const auto b = bus();
+    LeasePolicy p(b, counting_tokens());
+    std::size_t submitted = 0;
+    IntakeCore<int> intake(b, p, [&](const master::ClientRequest&) { return ++submitted, true; });
+    intake.close();
+    shm::Request r{};
+    r.size = sizeof r;
+    r.kind = shm::RequestKind::Write;
+    shm::assign(r.drive, "pump");
+    r.start = 0xFA00;
+    r.values[0] = 0xC400;
+    r.count = 1;
+    int route = 0;
+    const auto answer = intake.accept(r, route, true, rtu::Instant{});
+    ASSERT_TRUE(answer.has_value());
+    EXPECT_EQ(answer->status, shm::Status::BusDown);
+    EXPECT_EQ(submitted, 0U);
+    EXPECT_EQ(p.status(0).state, shm::LeaseState::Free);
+}
+
+}  // namespace
+}  // namespace drivebus::ipc
