@@ -87,7 +87,8 @@ struct ConnectOptions {
     std::string application = "drivebus-client";  // shown in drivebusd's logs
     // How long a request may take (queueing and retries included). Past it the request is
     // withdrawn, and the error says which happened: Withdrawn (never sent), OutcomeUnknown
-    // (it had reached the wire), or the request's own result if it finished meanwhile.
+    // (it had reached the wire), or the request's own result if it finished meanwhile. Each
+    // request carries that time as its deadline: drivebusd never sends it after it.
     Milliseconds request_timeout{2000};
     // No bus status for this long: DaemonGone. drivebusd publishes at least once a second.
     Milliseconds daemon_silence{3000};
