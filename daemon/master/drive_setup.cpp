@@ -28,12 +28,13 @@ std::optional<Job> Scheduler::next_setup(rtu::Instant now) {
     return std::nullopt;
 }
 
-// The drive's own Modbus time-out, read (and written when configured) once it answers: after
-// its set-up, before its polls; it holds nothing back.
+// The drive's own Modbus time-out, read (and written when configured) once it has answered:
+// after its set-up, before its polls; it holds nothing back. A drive nothing has reached yet
+// gets no request for it (one with nothing polled hears only what clients ask).
 std::optional<Job> Scheduler::next_check() {
     for (std::size_t d = 0; d < drives_.size(); ++d) {
         Drive& drive = drives_[d];
-        if (drive.health == Health::Absent) {
+        if (drive.health == Health::Absent || drive.health == Health::Unknown) {
             continue;
         }
         if (const auto request = drive.comm.next()) {

@@ -227,7 +227,7 @@ std::optional<rtu::Instant> Scheduler::next_due() const {
         return rtu::Instant::min();
     }
     for (const Drive& drive : drives_) {
-        if (drive.comm.running() && drive.health != Health::Absent) {
+        if (drive.comm.running() && drive.health != Health::Absent && drive.health != Health::Unknown) {
             return rtu::Instant::min();
         }
         if (!drive.setup_done && drive.health != Health::Absent) {

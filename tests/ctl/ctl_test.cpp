@@ -318,8 +318,10 @@ TEST(CtlStack, ListAndStatus) {
     const auto list = ctl({"list"});  // the only bus: no --bus needed
     ASSERT_EQ(list.status, 0) << describe(list);
     EXPECT_NE(list.out.find("bus " + stack.bus() + ": up, "), std::string::npos) << describe(list);
-    EXPECT_NE(list.out.find("  pump  1        atv21    online\n"), std::string::npos) << describe(list);
-    EXPECT_NE(list.out.find("  fan   2        atv58    online\n"), std::string::npos) << describe(list);
+    // TIME-OUT: the pump's F803 once its check is in a bus status (once a second); the fan's
+    // profile names none.
+    EXPECT_NE(list.out.find("  pump  1        atv21    online  "), std::string::npos) << describe(list);
+    EXPECT_NE(list.out.find("  fan   2        atv58    online  -\n"), std::string::npos) << describe(list);
 
     const auto bus = ctl({"status"});
     ASSERT_EQ(bus.status, 0) << describe(bus);

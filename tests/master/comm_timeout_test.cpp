@@ -247,9 +247,9 @@ protected:
         line = std::make_unique<VirtualLine>(*engine, drives, timing, kStart);
     }
     // Runs until the pump's snapshot carries a finished check.
-    const CommTimeoutNote& checked() {
+    const CommTimeoutNote& checked(rtu::Duration limit = 2s) {
         EXPECT_TRUE(line->run_until_true(
-            [&] { return !snapshots.empty() && snapshots.back().comm_timeout.state != State::Unknown; }, 2s));
+            [&] { return !snapshots.empty() && snapshots.back().comm_timeout.state != State::Unknown; }, limit));
         return snapshots.back().comm_timeout;
     }
     [[nodiscard]] std::size_t writes_to(std::uint16_t reg) const {
@@ -301,7 +301,9 @@ TEST_F(CommTimeoutLineTest, AKeepAliveLongerThanTheTimeOutMayLetItFire) {
     d.polls.clear();
     d.keep_alive = 5s;
     start();
-    const auto note = checked();  // nothing polls it: published when the check ends
+    // Nothing polls it: its first request is the keep-alive after 5 s, then the check, published
+    // when it ends.
+    const auto note = checked(10s);
     EXPECT_EQ(note.verdict, Verdict::MayFire);
     const auto text = master::comm_timeout_line(config, config.drives[0], note);
     ASSERT_TRUE(text.has_value());
@@ -350,6 +352,21 @@ TEST_F(CommTimeoutLineTest, AWriteTheDriveRefusesIsNotedAndThePumpStillPolled) {
     EXPECT_NE(text->text.find("F803 was not written 150 (exception 3); the drive holds F803 = 3 (3 s)"),
               std::string::npos)
         << text->text;
+}
+
+TEST_F(CommTimeoutLineTest, ADriveNothingHasReachedIsNotAskedUntilItAnswers) {
+    auto& d = add_pump();
+    d.polls.clear();
+    d.keep_alive.reset();
+    start();
+    line->run_for(2s);
+    EXPECT_TRUE(line->transmissions().empty()) << "nothing polled: only what clients ask";
+    // A client's read brings it online: then its time-out is read.
+    ASSERT_TRUE(engine->submit({7, 1, {1, rtu::ReadHoldingRegisters{0xFD00, 1}}}).has_value());
+    EXPECT_EQ(checked().state, State::Read);
+    const auto reads_f803 = std::ranges::count_if(
+        line->transmissions(), [](const auto& t) { return t.adu[1] == 0x03 && t.adu[2] == 0x08 && t.adu[3] == 0x03; });
+    EXPECT_EQ(reads_f803, 1);
 }
 
 }  // namespace
