@@ -16,6 +16,8 @@
 #include <thread>
 #include <utility>
 
+#include "sim_process.hpp"
+
 namespace drivebus::bench {
 
 using namespace std::chrono_literals;
@@ -84,6 +86,7 @@ fs::path fresh_dir(const std::string& what) {
 }
 
 int spawn(const std::vector<std::string>& argv, const fs::path& out) {
+    (void)test::own_state_dir();  // a drivebusd started here keeps its lease record there
     const int pid = ::fork();
     if (pid == 0) {
         const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);

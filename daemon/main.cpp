@@ -123,6 +123,12 @@ int run_main(int argc, char** argv) {
     if (!profile_dir.empty()) {
         options.profile_dir = profile_dir;
     }
+    if (auto state_dir = config::state_dir_from_environment()) {
+        options.state_dir = std::move(*state_dir);
+    } else {
+        log::error(state_dir.error().message);
+        return kExitConfig;
+    }
     // Validated once; nothing is opened before the whole configuration is valid.
     auto config = config::load_config(config_path, options);
     if (!config) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <span>
@@ -74,6 +75,9 @@ void read_buses(std::span<const BusSource> sources, const LoadOptions& options, 
                                           detail::in_quotes(it->second));
                 }
             }
+            if (options.state_dir && !table->contains("state_dir")) {
+                bus.state_dir = *options.state_dir;
+            }
             bus.settings = settings_text(*table);
             config.buses.push_back(std::move(bus));
         }
@@ -84,6 +88,18 @@ void read_buses(std::span<const BusSource> sources, const LoadOptions& options, 
 }
 
 }  // namespace
+
+std::expected<std::optional<fs::path>, ConfigError> state_dir_from_environment() {
+    const char* value = std::getenv("DRIVEBUS_STATE_DIR");  // NOLINT(concurrency-mt-unsafe): at start-up
+    if (value == nullptr || *value == '\0') {
+        return std::nullopt;
+    }
+    fs::path dir(value);
+    if (!dir.is_absolute()) {
+        return fail("DRIVEBUS_STATE_DIR " + detail::in_quotes(value) + " is not an absolute path");
+    }
+    return dir;
+}
 
 namespace detail {
 namespace {

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -99,6 +100,24 @@ TEST_F(DrivebusdCli, TheExamplesAreValid) {
             run_program({DRIVEBUSD_PATH, "--config", std::string(EXAMPLES_DIR) + "/" + example, "--check-config"});
         EXPECT_EQ(status, 0) << example << ": " << out;
     }
+}
+
+// The harness gives each test process its own state directory, and drivebusd reads it: a
+// relative one is refused, so the variable is not ignored.
+TEST_F(DrivebusdCli, TheStateDirectoryComesFromTheEnvironment) {
+    const auto [status, out] = check(kGood);
+    ASSERT_EQ(status, 0) << out;
+    const char* own = std::getenv("DRIVEBUS_STATE_DIR");  // NOLINT(concurrency-mt-unsafe)
+    ASSERT_NE(own, nullptr);
+    EXPECT_EQ(std::filesystem::path(own), own_state_dir());
+    EXPECT_TRUE(std::filesystem::is_directory(own_state_dir()));
+    EXPECT_NE(own_state_dir(), std::filesystem::path("/run/drivebus"));
+    ::setenv("DRIVEBUS_STATE_DIR", "state", 1);  // NOLINT(concurrency-mt-unsafe)
+    const auto [relative, relative_out] = check(kGood);
+    ::setenv("DRIVEBUS_STATE_DIR", own_state_dir().c_str(), 1);  // NOLINT(concurrency-mt-unsafe)
+    EXPECT_EQ(relative, 78) << relative_out;
+    EXPECT_NE(relative_out.find("DRIVEBUS_STATE_DIR 'state' is not an absolute path"), std::string::npos)
+        << relative_out;
 }
 
 TEST_F(DrivebusdCli, BadConfigurationsAreOneLineAndExit78) {

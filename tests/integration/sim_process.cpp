@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -47,7 +48,54 @@ fs::path fresh_dir() {
     return pattern;
 }
 
+// The process's own state directory, removed when the process that made it exits (a forked
+// child that exits does not remove it: it only ever execs or _exits, but the pid tells).
+class OwnStateDir {
+public:
+    OwnStateDir() : owner_(::getpid()) {
+        std::string pattern = (fs::temp_directory_path() / "drivebus-state-XXXXXX").string();
+        if (::mkdtemp(pattern.data()) == nullptr) {
+            throw std::runtime_error("mkdtemp failed");
+        }
+        path_ = pattern;
+        // Writable by a drivebusd that runs as another user (the access tests).
+        fs::permissions(path_, fs::perms::all | fs::perms::sticky_bit);
+        // Set before any child is forked; a child's drivebusd inherits it.
+        // NOLINTNEXTLINE(concurrency-mt-unsafe)
+        if (::setenv("DRIVEBUS_STATE_DIR", path_.c_str(), 1) != 0) {
+            throw std::runtime_error("setenv DRIVEBUS_STATE_DIR failed");
+        }
+    }
+    ~OwnStateDir() {
+        if (::getpid() == owner_) {
+            std::error_code ec;
+            fs::remove_all(path_, ec);
+        }
+    }
+    OwnStateDir(const OwnStateDir&) = delete;
+    OwnStateDir& operator=(const OwnStateDir&) = delete;
+    OwnStateDir(OwnStateDir&&) = delete;
+    OwnStateDir& operator=(OwnStateDir&&) = delete;
+    [[nodiscard]] const fs::path& path() const noexcept { return path_; }
+
+private:
+    pid_t owner_;
+    fs::path path_;
+};
+
+}  // namespace
+
+const fs::path& own_state_dir() {
+    static const OwnStateDir dir;
+    return dir.path();
+}
+
+namespace {
+
 int spawn(std::string program, const std::vector<std::string>& args, const fs::path& log) {
+    // Every drivebusd a test starts keeps its lease record in the test's own directory, never
+    // in /run/drivebus, where a killed one's record would reach the next test's bus.
+    (void)own_state_dir();
     const pid_t pid = ::fork();
     if (pid < 0) {
         throw std::runtime_error("fork failed");

@@ -52,6 +52,12 @@ private:
     bool owns_dir_ = true;
 };
 
+// This test process's own state directory (a temporary directory, removed at exit), made on
+// first use and put in DRIVEBUS_STATE_DIR, so that every drivebusd the process starts keeps its
+// lease record there unless its configuration names a state_dir. Every spawn here calls it;
+// a harness that forks and execs drivebusd by itself must call it first.
+const std::filesystem::path& own_state_dir();
+
 // Any program as a child process, its output in a file. Stopped (SIGTERM) when it goes.
 class Child {
 public:

@@ -95,7 +95,13 @@ struct ConfigError {
 // Where profiles come from: by type along profile_search_path(), unless a directory is given.
 struct LoadOptions {
     std::optional<std::filesystem::path> profile_dir;
+    // The state_dir of a bus that does not set its own (state_dir_from_environment()).
+    std::optional<std::filesystem::path> state_dir = std::nullopt;
 };
+
+// $DRIVEBUS_STATE_DIR, when set and not empty: the default state_dir, so that tests and
+// trials keep their lease records out of /run/drivebus. An error when it is not absolute.
+[[nodiscard]] std::expected<std::optional<std::filesystem::path>, ConfigError> state_dir_from_environment();
 
 // One file of a configuration: its name, for errors, and its text.
 struct ConfigText {
