@@ -21,6 +21,20 @@ std::string reason_of(ErrorKind kind) {
     return text;
 }
 
+// A command stopped part way says what it did before: that is not undone.
+std::string with_done(const std::string& message, const std::string& done_so_far) {
+    return done_so_far.empty() ? message : message + " (" + done_so_far + " done before: not undone)";
+}
+
+// Rounded down: the deadline is counted again from libdrivebus's call, a little later.
+WriteOptions write_options(std::optional<std::chrono::nanoseconds> left) {
+    WriteOptions options;
+    if (left) {
+        options.deadline = std::chrono::floor<Milliseconds>(*left);
+    }
+    return options;
+}
+
 }  // namespace
 
 struct Bridge::DriveLink {
@@ -221,18 +235,16 @@ void Bridge::carry_out(const Job& job) {
         const auto left =
             time_left(command->freshness, job.received, Clock::now() - job.arrived, config_.limits.max_command_age);
         if (!left) {
-            refuse(target, command->id, left.error().reason,
-                   done_so_far.empty() ? left.error().message
-                                       : left.error().message + " (" + done_so_far + " done before: not undone)");
+            refuse(target, command->id, left.error().reason, with_done(left.error().message, done_so_far));
             return;
         }
         std::expected<void, Error> done;
         switch (a.kind) {
         case Action::Kind::Write: {
             const std::array<std::uint16_t, 1> word{a.raw};
-            // Where libdrivebus takes a deadline (WriteOptions), *left belongs there too, so that a
-            // write held up in drivebusd's queue is withdrawn rather than sent late.
-            done = drive->drive.write(a.address, word);
+            // The command's time left bounds the write too: held up in drivebusd's queue (a slow
+            // or late drive ahead of it) past that, drivebusd drops it rather than send it late.
+            done = drive->drive.write(a.address, word, write_options(*left));
             break;
         }
         case Action::Kind::KeepAlive:
@@ -252,7 +264,9 @@ void Bridge::carry_out(const Job& job) {
             }
             const std::string what = a.kind == Action::Kind::Write ? "write " + a.name + ": " : std::string();
             link_->publish(topics_.result(job.bus, job.drive),
-                           result_error(command->id, reason_of(done.error().kind), what + done.error().message).dump(),
+                           result_error(command->id, reason_of(done.error().kind),
+                                        with_done(what + done.error().message, done_so_far))
+                               .dump(),
                            1, false);
             return;
         }

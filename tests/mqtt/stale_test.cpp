@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // Stale commands end to end: a retained command, one past its not_after and one older than the
-// bridge's limit are refused saying so, and the simulated drive receives no command word and no
+// bridge's limit are refused saying so, and one whose time runs out while its write waits in
+// drivebusd's queue is dropped there; the simulated drive receives no command word and no
 // reference for them (its write log). One RouDi per machine: RESOURCE_LOCK iceoryx.
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <future>
 
 #include "bridge_fixture.hpp"
 
@@ -83,6 +85,37 @@ TEST_F(MqttBridge, ACommandPastItsTimeIsRefusedAsExpiredAndNeverActs) {
     ASSERT_TRUE(ok) << bridge_output();
     EXPECT_EQ((*ok)["ok"], true) << ok->dump();
     EXPECT_EQ(stack_.sim_register(1, "FA01"), 3000);
+}
+
+TEST_F(MqttBridge, ACommandWhoseTimeRunsOutInDrivebusdsQueueIsDroppedThereAndNeverSentLate) {
+    start_bridge();
+    ASSERT_TRUE(online_state(20s)) << bridge_output();
+    // The fan turns late (past the response time-out, within the guard): a write to it holds the
+    // line through every attempt, 4 x (100 ms time-out + 100 ms guard).
+    const auto fan_word = [&] { return occurrences(stack_.sim().command("writes 2"), "0x0191=400"); };
+    const std::size_t fan_before = fan_word();
+    ASSERT_EQ(stack_.sim().command("fault 2 late=130ms").rfind("ok", 0), 0U);
+    auto fan = std::async(std::launch::async, [&] {
+        return run_program({DRIVEBUSCTL_PATH, "--bus", stack_.bus(), "write", "fan", "W401", "400"});
+    });
+    ASSERT_TRUE(wait_until([&] { return fan_word() > fan_before; }, 10s)) << stack_.daemon_output();
+    // Sent now, the pump's run waits behind the fan for longer than its 300 ms.
+    const Json run{{"id", "behind"}, {"verb", "run"}, {"max_age", "300ms"}};
+    ASSERT_TRUE(watcher_.publish(drive_topic("pump", "set"), run.dump()));
+    const auto r = result("pump", "behind", 20s);
+    ASSERT_TRUE(r) << bridge_output();
+    EXPECT_EQ((*r)["ok"], false) << r->dump();
+    EXPECT_EQ((*r)["reason"], "expired") << r->dump();
+    // drivebusd's drop (libdrivebus's words), not the bridge's own check before the write.
+    EXPECT_NE(r->value("error", "").find("not on the wire by its deadline"), std::string::npos) << r->dump();
+    const auto [fan_status, fan_out] = fan.get();
+    EXPECT_NE(fan_status, 0) << fan_out;  // the late fan never answered in time
+    ASSERT_EQ(stack_.sim().command("clear 2").rfind("ok", 0), 0U);
+    // The line is free again: a write still queued would go before the pump's next polls.
+    const auto requests = stack_.sim_requests();
+    ASSERT_TRUE(wait_until([&] { return stack_.sim_requests() >= requests + 3; }, 10s));
+    EXPECT_FALSE(pump_commanded(stack_)) << stack_.sim().command("writes 1");
+    EXPECT_NE(stack_.sim_register(1, "FA00"), kRunForward);
 }
 
 }  // namespace
