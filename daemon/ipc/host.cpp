@@ -141,7 +141,13 @@ struct Host::Embedded {
         std::mutex mutex;
         std::condition_variable_any woken;
         std::unique_lock lock(mutex);
-        while (!woken.wait_for(lock, stop, kReapPeriod, [] { return false; })) {
+        for (;;) {
+            // Wakes at the period, or at once when asked to stop (the predicate never holds: it
+            // is there for the stop token).
+            (void)woken.wait_for(lock, stop, kReapPeriod, [] { return false; });
+            if (stop.stop_requested()) {
+                return;
+            }
             // Ports come and go meanwhile on RouDi's threads: a port's memory stays mapped, and
             // a lock is only written when its holder has ended.
             const auto locks = port_locks(pool);
