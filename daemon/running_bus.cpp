@@ -1,9 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "running_bus.hpp"
 
+#include <poll.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
-#include <future>
+#include <cstdint>
 
 #include "log/log.hpp"
 #include "rt/realtime.hpp"
@@ -35,6 +38,22 @@ void service_thread_realtime(const config::RealtimeConfig& rt, const std::string
 // How long a stopping bus waits for its fallbacks: each drive's every attempt, twice over
 // (a reply on its way, a drive found absent), and at most 10 s, well inside systemd's
 // TimeoutStopSec.
+// Whether `fd` turns readable by `deadline` (poll again after a signal, with what is left).
+bool readable_by(int fd, std::chrono::steady_clock::time_point deadline) {
+    for (;;) {
+        const auto left =
+            std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+        pollfd p{fd, POLLIN, 0};
+        const int n = ::poll(&p, 1, static_cast<int>(std::max<std::int64_t>(left, 0)));
+        if (n > 0) {
+            return true;
+        }
+        if (n == 0 || errno != EINTR) {
+            return false;
+        }
+    }
+}
+
 std::chrono::steady_clock::duration fallback_wait(const config::BusConfig& bus) {
     const auto attempt = bus.response_timeout + bus.late_reply_guard.value_or(bus.response_timeout);
     const auto times = static_cast<std::int64_t>(2 * (bus.retries + 1) * std::max<std::size_t>(1, bus.drives.size()));
@@ -84,14 +103,14 @@ ipc::Carried restart_bus(RunningBus& b) {
 }
 
 void end_buses(std::vector<RunningBus>& buses) {
-    std::vector<std::future<void>> wound;
+    std::vector<int> wound;
     for (auto& b : buses) {
         wound.push_back(b.service->wind_down());
     }
     const auto start = std::chrono::steady_clock::now();
     for (std::size_t i = 0; i < buses.size(); ++i) {
         const auto& bus = *buses[i].config;
-        if (wound[i].wait_until(start + fallback_wait(bus)) != std::future_status::ready) {
+        if (!readable_by(wound[i], start + fallback_wait(bus))) {
             log::error("bus " + bus.name +
                            ": the fallback writes were not all answered in time; the line is let go, and the "
                            "next drivebusd applies them again",

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <future>
 #include <stdexcept>
 #include <thread>
 
@@ -53,7 +52,7 @@ struct BusService::Impl {
     sys::EventFd wind_fd;
     std::thread thread;
     bool winding = false;
-    std::promise<void> wound;  // set once every surrendered lease's fallback is answered
+    sys::EventFd wound_fd{"eventfd for the end of a wind-down"};  // every fallback answered
     bool wound_set = false;
 
     rtu::Instant next_status{};
@@ -146,7 +145,7 @@ struct BusService::Impl {
         record.keep(leases.record());
         if (winding && !wound_set && !leases.fallbacks_pending()) {
             wound_set = true;
-            wound.set_value();
+            wound_fd.signal();
         }
     }
 
@@ -236,10 +235,9 @@ BusService::BusService(const config::BusConfig& bus, const Layout& layout, bus::
     // The adopted and recovered leases are published with each drive's first snapshot.
 }
 
-std::future<void> BusService::wind_down() {
-    auto done = impl_->wound.get_future();
+int BusService::wind_down() {
     impl_->wind_fd.signal();
-    return done;
+    return impl_->wound_fd.fd();
 }
 
 Carried BusService::retire() {

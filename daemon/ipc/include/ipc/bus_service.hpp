@@ -6,7 +6,6 @@
 #pragma once
 
 #include <functional>
-#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -48,9 +47,10 @@ public:
 
     // drivebusd stops, or a reload drops the bus: no request is taken any more, and every
     // lease held ends with its drive's fallback, sent before the line is let go (stop() then
-    // retire()). Ready once every fallback is answered (acknowledged, or given up as an
-    // expiry's is); the caller bounds the wait.
-    [[nodiscard]] std::future<void> wind_down();
+    // retire()). Returns a descriptor that turns readable once every fallback is answered
+    // (acknowledged, or given up as an expiry's is): the caller polls it with its own deadline.
+    // An eventfd, as between drivebusd's other threads: the ipc thread takes no lock for it.
+    [[nodiscard]] int wind_down();
 
     // A reload restarts the bus: once this service and its loop have both stopped, answers what
     // the bus finished, then every request still waiting (refused, bus down), and returns the
