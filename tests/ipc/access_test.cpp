@@ -369,7 +369,9 @@ TEST(StaleRouDi, TheDaemonSaysWhatToRemove) {
                           << "[ipc]\nroudi = \"embedded\"\nwatch_group = \"" << kWatch << "\"\ncontrol_group = \""
                           << kControl << "\"\ndaemon_group = \"" << kDaemonGroup << "\"\n"
                           << "[[bus]]\nname = \"stale\"\ndevice = \"/dev/ttyDOESNOTEXIST\"\nparity = \"none\"\n"
-                             "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n";
+                             "  [[bus.drive]]\n  name = \"pump\"\n  address = 1\n  profile = \"atv21\"\n"
+                             // inside the ATV21's time-out, so that the error is drivebusd's only line
+                             "  keep_alive = \"1s\"\n";
     fs::permissions(config, fs::perms::owner_all | fs::perms::group_read | fs::perms::others_read);
     const auto [status, out] = run_program(
         as(kDaemonUser, {DRIVEBUSD_PATH, "--config", config.string(), "--profile-dir", DRIVEBUS_PROFILE_DIR}));
