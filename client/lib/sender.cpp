@@ -28,10 +28,14 @@ Sender::Sender(HandOver hand_over, Done done) : state_(std::make_shared<State>()
 bool Sender::stop() {
     bool stuck = false;
     {
-        const std::lock_guard lock(state_->mutex);
+        std::unique_lock lock(state_->mutex);
         state_->stop = true;
         state_->done = nullptr;
         state_->queue.clear();
+        // A send() under way almost always returns at once (its answer can even arrive first,
+        // and the caller be gone): waited for a while. Only one iceoryx still holds then is left
+        // to it; ending the process under a send() that is still running aborts in iceoryx.
+        state_->wake.wait_for(lock, kSendGrace, [&] { return !state_->sending; });
         stuck = state_->sending;
     }
     state_->wake.notify_all();
@@ -79,6 +83,7 @@ void Sender::run(const std::shared_ptr<State>& state) {
         const bool sent = state->hand_over(request);
         lock.lock();
         state->sending = false;
+        state->wake.notify_all();  // a stop() may wait for this send
         if (state->done) {
             state->done(request, sent);
         }

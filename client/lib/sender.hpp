@@ -7,6 +7,7 @@
 // reached iceoryx yet; one that iceoryx holds is the sender's until send() returns.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -42,6 +43,8 @@ public:
     bool stop();
 
 private:
+    // How long stop() waits for a send() under way before it leaves it to iceoryx.
+    static constexpr std::chrono::seconds kSendGrace{2};
     struct State;
     static void run(const std::shared_ptr<State>& state);
 
