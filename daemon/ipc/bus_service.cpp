@@ -37,7 +37,8 @@ struct BusService::Impl {
           loop(l),
           leases(b, random_tokens()),
           publisher(b, layout),
-          intake(b, l, leases, std::move(server)),
+          // The record is declared after the intake; the journal runs only once requests come.
+          intake(b, l, leases, std::move(server), [this] { record.keep(leases.record()); }),
           record(b),
           stop_fd("eventfd for bus " + b.name + "'s ipc thread"),
           wind_fd("eventfd for bus " + b.name + "'s wind-down") {}

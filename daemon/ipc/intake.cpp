@@ -23,12 +23,15 @@ struct Intake::Server {
 };
 
 struct Intake::Impl {
-    Impl(const config::BusConfig& b, bus::BusLoop& l, LeasePolicy& leases, std::shared_ptr<Intake::Server> adopted)
+    Impl(const config::BusConfig& b, bus::BusLoop& l, LeasePolicy& leases, std::shared_ptr<Intake::Server> adopted,
+         std::function<void()> journal)
         : loop(l),
           ready("eventfd for bus " + b.name + "'s requests"),
           port(adopted ? std::move(adopted) : std::make_shared<Intake::Server>(b.name)),
           server(port->server),
-          core(b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); }) {
+          core(
+              b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); },
+              std::move(journal)) {
         if (listener
                 .attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
                              iox::popo::createNotificationCallback(on_request, *this))
@@ -69,8 +72,9 @@ struct Intake::Impl {
     bool attached = true;
 };
 
-Intake::Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases, std::shared_ptr<Server> adopted)
-    : impl_(std::make_unique<Impl>(bus, loop, leases, std::move(adopted))) {}
+Intake::Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases, std::shared_ptr<Server> adopted,
+               std::function<void()> journal)
+    : impl_(std::make_unique<Impl>(bus, loop, leases, std::move(adopted), std::move(journal))) {}
 
 std::shared_ptr<Intake::Server> Intake::release() {
     impl_->detach();

@@ -66,10 +66,26 @@ void LeaseRecordFile::keep(const std::vector<RecordedLease>& leases) {
         }
         done += static_cast<std::size_t>(*n);
     }
+    // Durable before it replaces the record: a power cut after the rename finds the new text
+    // (the caller sends the command that took a lease only once this returns).
+    if (auto synced = sys::posix_call("fsync", [&] { return ::fsync(fd.get()); }); !synced) {
+        fail("cannot sync " + temporary.filename().string(), synced.error().error);
+        return;
+    }
     if (auto renamed = sys::posix_call("rename", [&] { return ::rename(temporary.c_str(), path_.c_str()); });
         !renamed) {
         fail("cannot rename " + temporary.filename().string() + " over it", renamed.error().error);
         return;
+    }
+    // The rename itself, in the directory.
+    if (auto dir = sys::posix_call(
+            "open", [&] { return ::open(path_.parent_path().c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); });
+        dir) {
+        const sys::UniqueFd dir_fd(*dir);
+        if (auto synced = sys::posix_call("fsync", [&] { return ::fsync(dir_fd.get()); }); !synced) {
+            fail("cannot sync its directory", synced.error().error);
+            return;
+        }
     }
     limiter_.reset("write");
     written_ = std::move(text);

@@ -14,7 +14,7 @@ void write_note(const std::optional<Note>& note, std::source_location where) {
 }
 
 LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
-    : bus_(bus), table_(bus, std::move(tokens)), pending_(bus.drives.size(), false) {}
+    : bus_(bus), table_(bus, std::move(tokens)), pending_(bus.drives.size(), false), retry_(bus.drives.size()) {}
 
 std::string LeasePolicy::name(std::size_t drive) const {
     return bus_.drives.at(drive).name;
@@ -28,6 +28,14 @@ std::vector<CarriedLease> LeasePolicy::carry() const {
     std::vector<CarriedLease> out;
     for (const auto& held : table_.held()) {
         out.push_back({bus_.drives.at(held.drive).name, held});
+    }
+    for (std::size_t d = 0; d < retry_.size(); ++d) {
+        if (retry_[d] && table_.status(d).state != shm::LeaseState::Held) {
+            HeldLease lease{};
+            lease.drive = d;
+            lease.holder.name = retry_[d]->holder;
+            out.push_back({bus_.drives[d].name, lease, true});
+        }
     }
     return out;
 }
@@ -47,6 +55,15 @@ std::vector<Note> LeasePolicy::adopt(const std::vector<CarriedLease>& leases) {
         }
         auto lease = c.lease;
         lease.drive = static_cast<std::size_t>(it - bus_.drives.begin());
+        if (c.unconfirmed) {
+            retry_[lease.drive] = Retry{lease.holder.name, 1, std::nullopt};
+            notes.push_back({log::Level::Warning,
+                             fmt::format("{}: the fallback for the lease of {} is not confirmed yet: it is written "
+                                         "again after the reload",
+                                         where(lease.drive), lease.holder.name),
+                             c.drive});
+            continue;
+        }
         table_.adopt(lease);
         notes.push_back(
             {log::Level::Info,
@@ -76,6 +93,9 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
                       name(drive)};
         return a;
     }
+    if (grant == 0 && d.changed) {
+        retry_[drive].reset();  // the new holder commands the drive now (settle() once it is sent)
+    }
     if (d.taken_over) {
         a.note = Note{log::Level::Notice,
                       fmt::format("{}: {} took the control lease over", where(drive), who.client_name), name(drive)};
@@ -89,6 +109,13 @@ LeaseAction LeasePolicy::command(std::size_t drive, const Origin& who, bool take
 
 LeaseAction LeasePolicy::settle(std::size_t drive, std::uint64_t grant, bool sent) {
     LeaseAction a;
+    if (sent && retry_.at(drive)) {
+        retry_[drive].reset();  // a holder's command reached the drive after the failed fallback
+        a.note = Note{log::Level::Notice,
+                      fmt::format("{}: a new holder commands it: the unconfirmed fallback is no longer written again",
+                                  where(drive)),
+                      name(drive)};
+    }
     if (table_.settle(drive, grant, sent)) {
         a.republish = true;
         a.note =
@@ -119,6 +146,7 @@ LeaseAction LeasePolicy::release(std::size_t drive, const Origin& who) {
         return a;
     }
     a.republish = true;
+    retry_[drive].reset();
     a.note = Note{log::Level::Info, fmt::format("{}: {} released the control lease", where(drive), who.client_name),
                   name(drive)};
     return a;
@@ -144,25 +172,80 @@ FallbackAction LeasePolicy::fallback(std::size_t drive, Note note) {
     return f;
 }
 
+bool LeasePolicy::retry_waits(std::size_t drive) const {
+    return retry_[drive] && !pending_[drive] && table_.status(drive).state != shm::LeaseState::Held;
+}
+
 std::vector<FallbackAction> LeasePolicy::expire(rtu::Instant now) {
     std::vector<FallbackAction> out;
     for (const auto& e : table_.expire(now)) {
+        retry_[e.drive].reset();  // a fresh fallback: its own tries
         out.push_back(fallback(e.drive, Note{log::Level::Warning,
                                              fmt::format("{}: the control lease of {} ran out; fallback: {}",
                                                          where(e.drive), e.holder.name, config::to_string(e.fallback)),
                                              name(e.drive)}));
     }
+    for (std::size_t d = 0; d < retry_.size(); ++d) {
+        if (!retry_waits(d)) {
+            continue;
+        }
+        if (!fallback_write(d)) {
+            retry_[d].reset();  // reconfigured to hold (or no stop word): nothing left to write
+            continue;
+        }
+        auto& r = *retry_[d];
+        if (!r.next) {
+            // 1 s, 2 s, 4 s ... 30 s: a drive that is off the line costs the line one time-out
+            // a try, not one a poll.
+            auto wait = kFirstRetry;
+            for (std::uint32_t i = 1; i < r.failures && wait < kLastRetry; ++i) {
+                wait *= 2;
+            }
+            r.next = now + std::min(wait, kLastRetry);
+            continue;
+        }
+        if (now >= *r.next) {
+            r.next.reset();
+            out.push_back(
+                fallback(d, Note{log::Level::Info,
+                                 fmt::format("{}: writing the unconfirmed fallback again (try {}): {}", where(d),
+                                             r.failures + 1, config::to_string(bus_.drives[d].fallback)),
+                                 name(d)}));
+        }
+    }
     return out;
+}
+
+std::optional<rtu::Instant> LeasePolicy::next_deadline() const {
+    auto next = table_.next_deadline();
+    for (std::size_t d = 0; d < retry_.size(); ++d) {
+        if (retry_waits(d) && retry_[d]->next && (!next || *retry_[d]->next < *next)) {
+            next = *retry_[d]->next;
+        }
+    }
+    return next;
 }
 
 std::vector<FallbackAction> LeasePolicy::surrender(rtu::Instant now) {
     std::vector<FallbackAction> out;
     for (const auto& e : table_.end_all(now)) {
+        retry_[e.drive].reset();
         out.push_back(fallback(e.drive, Note{log::Level::Notice,
                                              fmt::format("{}: drivebusd is stopping: the control lease of {} ends; "
                                                          "fallback: {}",
                                                          where(e.drive), e.holder.name, config::to_string(e.fallback)),
                                              name(e.drive)}));
+    }
+    for (std::size_t d = 0; d < retry_.size(); ++d) {
+        if (retry_waits(d)) {
+            retry_[d]->next.reset();
+            out.push_back(
+                fallback(d, Note{log::Level::Notice,
+                                 fmt::format("{}: drivebusd is stopping: the fallback for the lease of {} "
+                                             "is not confirmed; writing it once more: {}",
+                                             where(d), retry_[d]->holder, config::to_string(bus_.drives[d].fallback)),
+                                 name(d)}));
+        }
     }
     return out;
 }
@@ -194,12 +277,16 @@ Recovery LeasePolicy::recover(const ReadLeaseRecord& record, rtu::Instant now) {
         if (r.address && *r.address != it->address) {
             moved = fmt::format(" (recorded at address {}, configured at {} now)", *r.address, it->address);
         }
-        out.fallbacks.push_back(fallback(
-            drive, Note{log::Level::Warning,
-                        fmt::format("{}: the lease of {} was held when drivebusd last stopped; applying its fallback: "
-                                    "{}{}",
-                                    where(drive), r.holder, config::to_string(it->fallback), moved),
-                        r.drive}));
+        const auto fallback_name = config::to_string(it->fallback);
+        auto text = r.unconfirmed ? fmt::format(
+                                        "{}: the fallback for the lease of {} was not confirmed when drivebusd "
+                                        "last stopped; applying it again: {}{}",
+                                        where(drive), r.holder, fallback_name, moved)
+                                  : fmt::format(
+                                        "{}: the lease of {} was held when drivebusd last stopped; applying its "
+                                        "fallback: {}{}",
+                                        where(drive), r.holder, fallback_name, moved);
+        out.fallbacks.push_back(fallback(drive, Note{log::Level::Warning, std::move(text), r.drive}));
     }
     return out;
 }
@@ -208,9 +295,11 @@ std::vector<RecordedLease> LeasePolicy::record() const {
     std::vector<RecordedLease> out;
     for (std::size_t d = 0; d < bus_.drives.size(); ++d) {
         const auto s = table_.status(d);
+        const auto& drive = bus_.drives[d];
         if (s.state == shm::LeaseState::Held || pending_[d]) {
-            const auto& drive = bus_.drives[d];
             out.push_back({drive.name, drive.address, drive.fallback, std::string(shm::view(s.holder))});
+        } else if (retry_[d]) {
+            out.push_back({drive.name, drive.address, drive.fallback, retry_[d]->holder, true});
         }
     }
     return out;
@@ -226,12 +315,29 @@ LeaseAction LeasePolicy::fallback_done(std::size_t drive, master::Outcome outcom
     pending_.at(drive) = false;
     LeaseAction a;
     a.republish = true;
-    if (!ok) {
-        a.note = Note{log::Level::Error,
-                      fmt::format("{}: the fallback write failed: {}", where(drive),
-                                  refused ? std::string_view("refused by the bus") : master::to_string(outcome)),
-                      name(drive)};
+    auto& retry = retry_.at(drive);
+    if (ok) {
+        if (retry) {
+            a.note = Note{
+                log::Level::Notice,
+                fmt::format("{}: the fallback is confirmed, after {} failed write(s)", where(drive), retry->failures),
+                name(drive)};
+        }
+        retry.reset();
+        return a;
     }
+    if (!retry) {
+        retry = Retry{std::string(shm::view(table_.status(drive).holder)), 0, std::nullopt};
+    }
+    ++retry->failures;
+    retry->next.reset();
+    a.note =
+        Note{retry->failures == 1 ? log::Level::Error : log::Level::Warning,
+             fmt::format("{}: the fallback write failed: {} (failure {}); it stays in the lease record and is "
+                         "written again",
+                         where(drive), refused ? std::string_view("refused by the bus") : master::to_string(outcome),
+                         retry->failures),
+             name(drive)};
     return a;
 }
 

@@ -42,7 +42,7 @@ std::string format_lease_record(const std::vector<RecordedLease>& leases) {
     std::string out(kHeader);
     out += '\n';
     for (const auto& l : leases) {
-        out += fmt::format("lease {} {} {} {}\n", l.drive, l.address.value_or(0),
+        out += fmt::format("{} {} {} {} {}\n", l.unconfirmed ? "unconfirmed" : "lease", l.drive, l.address.value_or(0),
                            l.fallback ? config::to_string(*l.fallback) : std::string_view("?"), one_line(l.holder));
     }
     return out;
@@ -66,13 +66,15 @@ ReadLeaseRecord parse_lease_record(std::string_view text) {
         if (line.empty()) {
             continue;
         }
-        if (next_field(line) != "lease") {
+        const auto kind = next_field(line);
+        if (kind != "lease" && kind != "unconfirmed") {
             if (number != 1) {
                 out.problems.push_back(fmt::format("line {} is not a lease", number));
             }
             continue;
         }
         RecordedLease l;
+        l.unconfirmed = kind == "unconfirmed";
         l.drive = std::string(next_field(line));
         if (l.drive.empty()) {
             out.problems.push_back(fmt::format("line {} names no drive", number));

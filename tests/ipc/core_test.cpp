@@ -445,7 +445,12 @@ TEST(LeasePolicy, ReturnsWhatToAnswerPublishLogAndWrite) {
     EXPECT_EQ(failed.note->level, log::Level::Error);
     EXPECT_EQ(failed.note->drive, "pump");
     EXPECT_EQ(p.status(0).fallback_ok, 0);
-    EXPECT_FALSE(p.fallback_done(0, master::Outcome::Ok, false).note.has_value());
+    // Confirmed after the failure: said once, at notice.
+    const auto confirmed = p.fallback_done(0, master::Outcome::Ok, false);
+    ASSERT_TRUE(confirmed.note.has_value());
+    EXPECT_EQ(confirmed.note->level, log::Level::Notice);
+    EXPECT_NE(confirmed.note->text.find("the fallback is confirmed, after 1 failed write(s)"), std::string::npos)
+        << confirmed.note->text;
     EXPECT_EQ(p.status(0).fallback_ok, 1);
 }
 

@@ -114,6 +114,63 @@ TEST(Restart, ADrivebusdStartedAfterOneThatWasKilledAppliesTheFallbackFirst) {
     EXPECT_TRUE(wait_until([&] { return record(stack).find("lease ") == std::string::npos; }, 5s)) << record(stack);
 }
 
+// systemctl stop on a line that has gone quiet: the stop word times out. The record keeps it,
+// marked unconfirmed, and the drivebusd that starts next (its opening of the port brings the
+// simulated line back) applies it first, and says that it was not confirmed. (Before: the
+// failed fallback was dropped, the record left empty, and the pump ran on with no holder.)
+TEST(Restart, AFallbackTheDriveDidNotConfirmAtStopIsAppliedByTheNextDrivebusd) {
+    Stack stack(leased());
+    Client holder({stack.bus(), "command", "30"});
+    run_pump(stack, holder);
+    ASSERT_EQ(stack.sim().command("mute"), "ok");
+    EXPECT_EQ(stack.stop_daemon(), 0) << stack.daemon_output();
+    holder.kill9();
+    ASSERT_EQ(stack.sim_register(1, "FA00"), kRun) << "the stop word reached the pump on a mute line";
+    const auto out = stack.daemon_output();
+    EXPECT_NE(out.find("drive pump: the fallback write failed: "), std::string::npos) << out;
+    EXPECT_NE(record(stack).find("unconfirmed pump 1 stop test_client_command["), std::string::npos) << record(stack);
+    const auto before = pump_requests(stack).total;
+    stack.start_daemon();
+    ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == kStop; }, 10s)) << stack.daemon_output();
+    const auto after = since(pump_requests(stack), before);
+    ASSERT_FALSE(after.empty());
+    EXPECT_EQ(after.front(), kStopWord) << "the first request to reach the pump";
+    EXPECT_NE(stack.daemon_output().find("was not confirmed when drivebusd last stopped; applying it again: stop"),
+              std::string::npos)
+        << stack.daemon_output();
+    EXPECT_TRUE(wait_until([&] { return record(stack).find("pump") == std::string::npos; }, 5s)) << record(stack);
+}
+
+// The worst moments for a kill: the instant the run word reaches the pump (its reply perhaps
+// still on the wire, the holder not yet answered), without waiting for anything else. The
+// record is written before the command goes to the bus, so every time the next drivebusd
+// finds the lease and stops the pump first. Six rounds, none missed.
+TEST(Restart, KilledTheMomentTheCommandReachesThePumpTheNextDrivebusdStopsIt) {
+    Stack stack(leased());
+    constexpr int kRounds = 6;
+    int stopped = 0;
+    for (int round = 0; round < kRounds; ++round) {
+        ASSERT_NE(stack.sim_register(1, "FA00"), kRun) << "round " << round;
+        Client holder({stack.bus(), "command", "30"});
+        ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == kRun; }, 10s))
+            << "round " << round << ": " << holder.output();
+        stack.kill_daemon();
+        holder.kill9();
+        const auto before = pump_requests(stack).total;
+        stack.start_daemon();
+        ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == kStop; }, 10s))
+            << "round " << round << ": the pump runs on with no holder\n"
+            << stack.daemon_output();
+        const auto after = since(pump_requests(stack), before);
+        ASSERT_FALSE(after.empty());
+        EXPECT_EQ(after.front(), kStopWord) << "round " << round << ": the first request to reach the pump";
+        ++stopped;
+        ASSERT_TRUE(wait_until([&] { return record(stack).find("pump") == std::string::npos; }, 5s))
+            << "round " << round << ": " << record(stack);
+    }
+    EXPECT_EQ(stopped, kRounds);
+}
+
 // systemctl restart (and a package upgrade): stopped, then started. The pump is stopped by the
 // one that stops; the one that starts has nothing left to apply.
 TEST(Restart, ARestartedDrivebusdLeavesNoDriveRunningWithoutAHolder) {

@@ -6,6 +6,7 @@
 // the ipc thread only; iceoryx's listener thread merely wakes it through an eventfd.
 #pragma once
 
+#include <functional>
 #include <memory>
 
 #include "bus/bus_loop.hpp"
@@ -22,8 +23,10 @@ public:
     struct Server;
 
     // `adopted`: the server of the bus before its restart (release()); a new one otherwise.
+    // `journal`: makes the lease record durable before a command that took a lease is sent
+    // (IntakeCore::Journal).
     Intake(const config::BusConfig& bus, bus::BusLoop& loop, LeasePolicy& leases,
-           std::shared_ptr<Server> adopted = nullptr);
+           std::shared_ptr<Server> adopted = nullptr, std::function<void()> journal = {});
     ~Intake();
     Intake(const Intake&) = delete;
     Intake& operator=(const Intake&) = delete;

@@ -26,9 +26,17 @@ template <typename Route>
 class IntakeCore {
 public:
     using Submit = std::function<bool(const master::ClientRequest&)>;
+    // Makes the lease record durable (LeasePolicy::record()): called when a command has taken a
+    // lease (or taken it over), before the command goes to the bus, so that no drive is sent
+    // a command its lease record does not name.
+    using Journal = std::function<void()>;
 
-    IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit)
-        : bus_(bus), leases_(leases), submit_(std::move(submit)), book_(bus.queue_limit) {}
+    IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit, Journal journal = {})
+        : bus_(bus),
+          leases_(leases),
+          submit_(std::move(submit)),
+          journal_(std::move(journal)),
+          book_(bus.queue_limit) {}
 
     // A request from a client. Returns the answer to send now with `route`; nullopt: the
     // request and its route are booked and the bus will answer.
@@ -82,6 +90,9 @@ public:
             booked.lease_ms = a.lease_ms;
             booked.granted = a.token;  // whatever the bus then answers, the taker learns its token
             booked.grant = who.drive != kBroadcast;
+            if (a.republish && journal_) {
+                journal_();  // written ahead: the record names the holder before its command is sent
+            }
         }
         if (!submit_(master::ClientRequest{request.client, *id, admitted->request,
                                            request.kind == shm::RequestKind::Probe, false, false,
@@ -243,6 +254,7 @@ private:
     const config::BusConfig& bus_;
     LeasePolicy& leases_;
     Submit submit_;
+    Journal journal_;
     PendingBook<Route> book_;
     std::vector<std::size_t> republish_;
     std::uint64_t served_ = 0;

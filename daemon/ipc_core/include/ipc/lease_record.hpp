@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // What drivebusd keeps of a bus's control leases between two of its runs: the drives whose
-// lease is held (or whose fallback is on its way), so that a drivebusd that starts after one
-// that was killed or crashed applies their fallbacks before anything else reaches them. One
-// small text file per bus (daemon/ipc/lease_record_file.hpp writes it); never the token.
+// lease is held (or whose fallback is on its way), and those whose fallback the drive has not
+// confirmed (the write failed: timed out, refused), so that a drivebusd that starts after one
+// that was killed, crashed or stopped on a line that failed applies their fallbacks before
+// anything else reaches them. One small text file per bus (daemon/ipc/lease_record_file.hpp
+// writes it, before the first command of a lease is sent); never the token.
 //
 //   drivebus-leases 1
 //   lease pump 1 stop pump-control[1234]
+//   unconfirmed fan 2 freewheel fan-control[99]
 //
 // Fields: the drive's name, its address and fallback as they were, and the holder's name (the
 // rest of the line, for the log). Pure: text in, text out.
@@ -25,6 +28,7 @@ struct RecordedLease {
     std::optional<int> address;                     // unreadable: nullopt
     std::optional<config::LeaseFallback> fallback;  // unreadable: nullopt
     std::string holder;
+    bool unconfirmed = false;  // not held: its fallback was written and the drive did not confirm it
 
     bool operator==(const RecordedLease&) const = default;
 };
