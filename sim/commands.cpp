@@ -9,7 +9,7 @@ namespace drivebus::sim {
 namespace {
 
 constexpr std::string_view kHelp =
-    "ok commands: drives | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
+    "ok commands: drives | idle | stats | silences | faults | fault ADDR|* key=value... | clear [ADDR|*] | "
     "writes ADDR | requests ADDR | mute | unmute | get ADDR REG | set ADDR REG VALUE | option ADDR key=value | power "
     "ADDR";
 
@@ -72,12 +72,15 @@ std::string error(const std::string& message) {
 
 }  // namespace
 
-std::string run_command(Bus& bus, std::string_view line, rtu::Instant now) {
+std::string run_command(Bus& bus, std::string_view line, rtu::Instant now, bool line_idle) {
     const auto w = words(line);
     if (w.empty() || w[0] == "help") {
         return std::string(kHelp);
     }
     const std::string_view verb = w[0];
+    if (verb == "idle" && w.size() == 1) {
+        return line_idle ? "ok idle" : "ok busy";
+    }
     if (verb == "stats" && w.size() == 1) {
         return "ok " + bus.counters().to_string();
     }

@@ -11,8 +11,9 @@
 
 namespace drivebus::sim {
 
-// Runs one control command; returns "ok ..." or "error: ...".
-[[nodiscard]] std::string run_command(Bus& bus, std::string_view line, rtu::Instant now);
+// Runs one control command; returns "ok ..." or "error: ...". `line_idle`: nothing the master
+// sent is waiting to be read and no frame is being received (the command `idle` says it).
+[[nodiscard]] std::string run_command(Bus& bus, std::string_view line, rtu::Instant now, bool line_idle = true);
 
 // "[ADDR:]key=value", as --fault takes it.
 [[nodiscard]] std::expected<void, std::string> apply_fault_argument(Bus& bus, std::string_view argument);

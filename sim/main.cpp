@@ -2,6 +2,7 @@
 // drivebus-sim: simulated Altivar drives on a pty (or a given tty), paced at the line's wire
 // speed, with fault injection. See docs/simulator.md.
 #include <sched.h>
+#include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
@@ -217,8 +218,13 @@ int run(const sim::Options& o) {
     std::optional<sim::ControlServer> control;
     if (!o.control.empty()) {
         try {
-            control.emplace(loop, o.control,
-                            [&](std::string_view command) { return sim::run_command(bus, command, sys::now()); });
+            control.emplace(loop, o.control, [&](std::string_view command) {
+                // Idle: every byte the master sent has been read and framed, and
+                // each whole request is in the drives' logs.
+                int unread = 0;
+                const bool idle = ::ioctl(line.fd.get(), FIONREAD, &unread) == 0 && unread == 0 && !framer.frame_open();
+                return sim::run_command(bus, command, sys::now(), idle);
+            });
         } catch (const std::exception& e) {
             sim::remove_link(line);
             fail(kExitRuntime, std::string("--control: ") + e.what());

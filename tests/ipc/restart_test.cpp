@@ -47,6 +47,16 @@ Received pump_requests(Stack& stack) {
     return r;
 }
 
+// How many requests reached the pump, once the line is idle: a request the last drivebusd
+// wrote just before it was killed may still be in the pty, or in the simulator's framer
+// waiting for its silence, and must be counted before the next drivebusd starts, not taken for
+// the first request of that one.
+std::uint64_t settled_total(Stack& stack) {
+    EXPECT_TRUE(wait_until([&] { return stack.sim().command("idle") == "ok idle"; }, 5s))
+        << "the simulator's line did not go idle";
+    return pump_requests(stack).total;
+}
+
 // The requests the pump received after the first `before` of them.
 std::vector<std::string> since(const Received& now, std::uint64_t before) {
     const std::uint64_t dropped = now.total - now.items.size();  // older than the log keeps
@@ -96,7 +106,7 @@ TEST(Restart, ADrivebusdStartedAfterOneThatWasKilledAppliesTheFallbackFirst) {
     run_pump(stack, holder);
     stack.kill_daemon();
     holder.kill9();  // its drivebusd gone, the application ends (libdrivebus cannot reconnect)
-    const auto before = pump_requests(stack).total;
+    const auto before = settled_total(stack);
     ASSERT_EQ(stack.sim_register(1, "FA00"), kRun) << "nobody stopped the pump";
     stack.start_daemon();
     ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == kStop; }, 10s)) << stack.daemon_output();
@@ -129,7 +139,7 @@ TEST(Restart, AFallbackTheDriveDidNotConfirmAtStopIsAppliedByTheNextDrivebusd) {
     const auto out = stack.daemon_output();
     EXPECT_NE(out.find("drive pump: the fallback write failed: "), std::string::npos) << out;
     EXPECT_NE(record(stack).find("unconfirmed pump 1 stop test_client_command["), std::string::npos) << record(stack);
-    const auto before = pump_requests(stack).total;
+    const auto before = settled_total(stack);
     stack.start_daemon();
     ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == kStop; }, 10s)) << stack.daemon_output();
     const auto after = since(pump_requests(stack), before);
@@ -156,7 +166,7 @@ TEST(Restart, KilledTheMomentTheCommandReachesThePumpTheNextDrivebusdStopsIt) {
             << "round " << round << ": " << holder.output();
         stack.kill_daemon();
         holder.kill9();
-        const auto before = pump_requests(stack).total;
+        const auto before = settled_total(stack);
         stack.start_daemon();
         ASSERT_TRUE(wait_until([&] { return stack.sim_register(1, "FA00") == kStop; }, 10s))
             << "round " << round << ": the pump runs on with no holder\n"
@@ -180,7 +190,7 @@ TEST(Restart, ARestartedDrivebusdLeavesNoDriveRunningWithoutAHolder) {
     EXPECT_EQ(stack.stop_daemon(), 0) << stack.daemon_output();
     holder.kill9();
     EXPECT_EQ(stack.sim_register(1, "FA00"), kStop) << stack.daemon_output();
-    const auto before = pump_requests(stack).total;
+    const auto before = settled_total(stack);
     stack.start_daemon();
     // The new drivebusd polls the pump, and writes it nothing of its own.
     ASSERT_TRUE(wait_until([&] { return pump_requests(stack).total > before + 20; }, 10s)) << stack.daemon_output();
