@@ -5,21 +5,27 @@
 //   drivebus-mqtt --config FILE [--check-config] [--verbose]
 //
 // Exit codes: 0 clean stop (or a valid config with --check-config), 78 bad configuration
-// (EX_CONFIG), 2 bad command line, 1 a failure at start-up.
+// (EX_CONFIG; also a password file or TLS key others may read: mqtt/core/include/mqtt/secret.hpp),
+// 2 bad command line, 1 a failure at start-up.
 #include <signal.h>
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <array>
+#include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "bridge.hpp"
 #include "drivebus/version.hpp"
 #include "log/log.hpp"
 #include "mqtt/config.hpp"
+#include "secret_facts.hpp"
 
 using namespace drivebus;
 
@@ -28,6 +34,28 @@ namespace {
 constexpr int kExitConfig = 78;
 constexpr int kExitUsage = 2;
 constexpr int kExitStartup = 1;
+
+// The password file and the TLS key, as mqtt::secret_problem() requires them; why not, else.
+std::optional<std::string> secrets_problem(const mqtt::Config& config) {
+    std::vector<std::pair<std::string, std::filesystem::path>> secrets;
+    if (!config.broker.password_file.empty()) {
+        secrets.emplace_back("broker.password_file", config.broker.password_file);
+    }
+    if (config.broker.tls && !config.broker.tls->keyfile.empty()) {
+        secrets.emplace_back("broker.tls.keyfile", config.broker.tls->keyfile);
+    }
+    const auto me = mqtt::this_account();
+    for (auto& [key, path] : secrets) {
+        const auto file = mqtt::read_secret_file(key, path);
+        if (!file) {
+            return file.error();
+        }
+        if (auto problem = mqtt::secret_problem(*file, me)) {
+            return problem;
+        }
+    }
+    return std::nullopt;
+}
 
 std::string hostname() {
     std::array<char, 256> name{};
@@ -60,6 +88,10 @@ int run_main(int argc, char** argv) {
     const auto config = mqtt::load_config(config_path, hostname());
     if (!config) {
         log::error(config.error().message);
+        return kExitConfig;
+    }
+    if (const auto problem = secrets_problem(*config)) {
+        log::error(*problem);
         return kExitConfig;
     }
     if (check_only) {

@@ -371,10 +371,12 @@ def main(argv):
                 for pattern in patterns:
                     if not re.search(pattern, text):
                         problems.append(f"drivebus-gateway: {script} has no /{pattern}/")
-        # drivebus-mqtt: its unit is not enabled, stopped on removal, forgotten on purge.
+        # drivebus-mqtt: its unit is not enabled, stopped on removal, forgotten on purge; older
+        # root:drivebus secrets get the group drivebus-mqtt (tests/deploy/mqtt_secrets_upgrade.sh).
         control = controls.get("drivebus-mqtt")
         if control:
             for script, pattern in (("postinst", r"deb-systemd-helper debian-installed 'drivebus-mqtt\.service'"),
+                                    ("postinst", r'chgrp drivebus-mqtt "\$secret"'),
                                     ("postrm", r"deb-systemd-helper purge 'drivebus-mqtt\.service'")):
                 path = os.path.join(control, script)
                 text = open(path, encoding="utf-8").read() if os.path.exists(path) else ""

@@ -226,6 +226,10 @@ protected:
         }
         std::ofstream(p("board.password")) << "s3cret\n";
         std::ofstream(p("wrong.password")) << "guess\n";
+        // The bridge's own secrets, kept as it requires (it refuses one that others may read).
+        for (const char* secret : {"client.key", "board.password", "wrong.password"}) {
+            fs::permissions(p(secret), fs::perms::owner_read | fs::perms::owner_write);
+        }
         broker_ = std::make_unique<Broker>(0, "cafile " + p("ca.pem") + "\ncertfile " + p("server.pem") + "\nkeyfile " +
                                                   p("server.key") +
                                                   "\nrequire_certificate true\nallow_anonymous false\n"
