@@ -188,7 +188,13 @@ TEST(IpcSoak, ValuesWritesMemoryAndDescriptorsHoldUnderFaultsAndKills) {
         rss_last = std::max(rss_last, samples[i].first);
         fds_last = std::max(fds_last, samples[i].second);
     }
+#if !defined(__SANITIZE_ADDRESS__)
     EXPECT_LE(rss_last, rss_first + 1024) << "RssAnon grew from " << rss_first << " kB to " << rss_last << " kB";
+#else
+    // Not under AddressSanitizer: its quarantine keeps freed memory by design (up to 256 MB), so
+    // drivebusd's anonymous memory grows with whatever it allocates and frees (seen: 1.3 MB in
+    // 12 rounds). The g++ stage holds the bound.
+#endif
     EXPECT_LE(fds_last, fds_first + 2) << "open descriptors grew from " << fds_first << " to " << fds_last;
 
     const std::string out = stack.daemon_output();
