@@ -13,8 +13,12 @@
 #include <cstdlib>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <stop_token>
+#include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "drivebus/shm.hpp"
 #include "iceoryx_hoofs/error_handling/error_handling.hpp"
@@ -26,6 +30,7 @@
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
 #include "ipc/held_locks.hpp"
 #include "ipc/leftovers.hpp"
+#include "ipc/registrants.hpp"
 #include "ipc/seal.hpp"
 #include "log/log.hpp"
 #include "sys/local.hpp"
@@ -119,38 +124,127 @@ std::expected<void, std::string> seal_all(const Layout& layout) {
     return {};
 }
 
+// RouDi, telling drivebusd who registers, keeps alive and says goodbye (registrants.hpp), and
+// listing the ports' locks under its own lock.
+class WatchedRouDi final : public iox::roudi::RouDi {
+public:
+    WatchedRouDi(iox::roudi::RouDiMemoryInterface& memory, iox::roudi::PortManager& ports, Registrants& registrants)
+        : RouDi(memory, ports,
+                RoudiStartupParameters{iox::roudi::MonitoringMode::ON, /*killProcessesInDestructor=*/false,
+                                       RuntimeMessagesThreadStart::DEFER_START}),
+          registrants_(registrants),
+          sees_all_(proc_shows_everyone()) {
+        // Only now: every message, the first REG too, reaches this processMessage().
+        startProcessRuntimeMessagesThread();
+    }
+    // Its threads call processMessage(): they end before this part of it does.
+    ~WatchedRouDi() override { shutdown(); }
+    WatchedRouDi(const WatchedRouDi&) = delete;
+    WatchedRouDi& operator=(const WatchedRouDi&) = delete;
+    WatchedRouDi(WatchedRouDi&&) = delete;
+    WatchedRouDi& operator=(WatchedRouDi&&) = delete;
+
+    // Every port's lock, listed while RouDi's process manager is held: it alone creates and
+    // removes ports. Waits as long as RouDi holds it.
+    std::vector<pthread_mutex_t*> locks(iox::roudi::PortPool& pool) {
+        auto held = m_prcMgr.getScopeGuard();
+        return port_locks(pool);
+    }
+
+protected:
+    void processMessage(const iox::runtime::IpcMessage& message, const iox::runtime::IpcMessageType& cmd,
+                        const iox::RuntimeName_t& name) noexcept override {
+        const std::string runtime(name.c_str());
+        const auto now = Registrants::Clock::now();
+        if (cmd == iox::runtime::IpcMessageType::REG && message.getNumberOfElements() == 6) {
+            // Before RouDi answers: no port of it exists before drivebusd knows of it.
+            std::uint32_t pid = 0;
+            uid_t uid = 0;
+            std::int64_t sent = 0;
+            (void)parseRegisterMessage(message, pid, uid, sent);
+            const auto ticks = boot_ticks_now();
+            registrants_.registered(runtime, static_cast<pid_t>(pid),
+                                    judge_registrant(static_cast<pid_t>(pid), uid, ticks, "/proc", sees_all_), now);
+        } else if (cmd != iox::runtime::IpcMessageType::TERMINATION) {
+            registrants_.heard(runtime, now);
+        }
+        RouDi::processMessage(message, cmd, name);
+        if (cmd == iox::runtime::IpcMessageType::TERMINATION) {
+            registrants_.left(runtime);
+        }
+    }
+
+private:
+    Registrants& registrants_;
+    bool sees_all_;
+};
+
 // The components create the segments; RouDi, once constructed, answers on its socket.
 // This process's runtime is a member too, declared last: it goes first, and says goodbye to a
 // RouDi that still listens. (initRuntime()'s runtime is a static that outlives every object
 // of main(); at exit it would send its TERMINATION to a RouDi already gone, and iceoryx logs
 // that as two errors on every clean stop.)
 // The reaper frees the port locks killed clients left held (held_locks.hpp) well before RouDi's
-// monitoring (1.5 s without a keep-alive) cleans up after them and would wait on those locks.
+// monitoring (1.5 s without a keep-alive) cleans up after them and would wait on those locks,
+// and only while every registered runtime is a process of drivebusd's PID namespace
+// (registrants.hpp). The walker lists the locks under RouDi's lock; when RouDi holds that lock
+// for long (its clean-up waits on a held lock), no port comes or goes, and the reaper works
+// from the walker's last list.
 struct Host::Embedded {
-    explicit Embedded(const iox::RouDiConfig_t& config) : components(config) {}
+    explicit Embedded(const iox::RouDiConfig_t& config)
+        : components(config),
+          registrants(std::chrono::nanoseconds(iox::runtime::PROCESS_KEEP_ALIVE_TIMEOUT.toNanoseconds())) {}
     void serve() {
-        roudi.emplace(components.rouDiMemoryManager, components.portManager,
-                      iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON,
-                                                                /*killProcessesInDestructor=*/false});
+        roudi.emplace(components.rouDiMemoryManager, components.portManager, registrants);
         if (auto pool = components.rouDiMemoryManager.portPool(); pool.has_value()) {
-            reaper = std::jthread([this, p = pool.value()](const std::stop_token& stop) { reap(*p, stop); });
+            walker = std::jthread([this, p = pool.value()](const std::stop_token& stop) { walk(*p, stop); });
+            reaper = std::jthread([this](const std::stop_token& stop) { reap(stop); });
         }
     }
-    void reap(iox::roudi::PortPool& pool, const std::stop_token& stop) {
-        HeldLockReaper reaper_of_locks;
+    // Wakes at the period, or at once when asked to stop (the predicate never holds: it is there
+    // for the stop token). False once asked to stop.
+    static bool pause(const std::stop_token& stop) {
         std::mutex mutex;
         std::condition_variable_any woken;
         std::unique_lock lock(mutex);
-        for (;;) {
-            // Wakes at the period, or at once when asked to stop (the predicate never holds: it
-            // is there for the stop token).
-            (void)woken.wait_for(lock, stop, kReapPeriod, [] { return false; });
-            if (stop.stop_requested()) {
-                return;
+        (void)woken.wait_for(lock, stop, kReapPeriod, [] { return false; });
+        return !stop.stop_requested();
+    }
+    void walk(iox::roudi::PortPool& pool, const std::stop_token& stop) {
+        do {
+            auto now = roudi->locks(pool);
+            const std::lock_guard lock(listed_mutex);
+            listed = std::move(now);
+        } while (pause(stop));
+    }
+    void reap(const std::stop_token& stop) {
+        HeldLockReaper reaper_of_locks;
+        std::set<std::pair<std::string, pid_t>> told;
+        bool refused = false;
+        while (pause(stop)) {
+            if (const auto refusal = registrants.refusal()) {
+                // Nothing suspected while refused counts towards a later sweep.
+                reaper_of_locks.forget();
+                refused = true;
+                if (told.emplace(refusal->runtime, refusal->pid).second) {
+                    log::warning(
+                        fmt::format("iceoryx: locks a killed client leaves held are not freed while runtime "
+                                    "'{}' (pid {}) is connected: {}",
+                                    refusal->runtime, refusal->pid, refusal->reason));
+                }
+                continue;
             }
-            // Ports come and go meanwhile on RouDi's threads: a port's memory stays mapped, and
-            // a lock is only written when its holder has ended.
-            const auto locks = port_locks(pool);
+            if (refused) {
+                refused = false;
+                log::info(
+                    "iceoryx: every connected runtime is a process drivebusd can judge: locks a killed client "
+                    "leaves held are freed again");
+            }
+            std::vector<pthread_mutex_t*> locks;
+            {
+                const std::lock_guard lock(listed_mutex);
+                locks = listed;
+            }
             if (const auto freed = reaper_of_locks.sweep(locks); freed > 0) {
                 log::warning(fmt::format("iceoryx: freed {} lock(s) that a killed client had left held", freed));
             }
@@ -158,8 +252,12 @@ struct Host::Embedded {
     }
     static constexpr std::chrono::milliseconds kReapPeriod{100};
     iox::roudi::IceOryxRouDiComponents components;
-    std::optional<iox::roudi::RouDi> roudi;
+    Registrants registrants;
+    std::mutex listed_mutex;
+    std::vector<pthread_mutex_t*> listed;  // the walker's last list
+    std::optional<WatchedRouDi> roudi;
     std::optional<iox::runtime::PoshRuntimeSingleProcess> runtime;
+    std::jthread walker;  // declared after the RouDi it asks: stops before it goes
     std::jthread reaper;  // declared last: stops first
 };
 

@@ -121,6 +121,9 @@ def needs(unit):
         problems.append("PrivateTmp=yes hides the iceoryx sockets in /tmp from clients")
     if last("PrivateUsers") in ("yes", "true", "1"):
         problems.append("PrivateUsers=yes voids CAP_SYS_NICE and CAP_IPC_LOCK on the host")
+    if last("ProtectProc") not in ("", "default"):
+        problems.append(f"ProtectProc={last('ProtectProc')} hides the clients' processes, "
+                        "and the lock reaper then frees nothing")
     allowed = [v.split()[0] for v in s.get("DeviceAllow", []) if v.split()]
     if last("DevicePolicy") in ("closed", "strict"):
         for dev in ("char-ttyS", "char-ttyUSB", "char-ttyACM", "char-gpiochip"):

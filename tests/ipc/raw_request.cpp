@@ -12,11 +12,13 @@
 // answer (time-out, bad frame, late, bus down), `other` everything else. With GO, it prints
 // "connected" once connected and sends only when the file GO exists, so that many clients can
 // send at the same moment.
-//   raw_request BUS spam
-// Keeps 8 requests in flight until killed, sending the next as soon as an answer comes, without
-// a pause: much of its time is spent inside iceoryx's send(), where a SIGKILL leaves locks
-// held. They name no drive of the bus, so drivebusd refuses them at once and the line stays
-// free for others. Prints "spamming" after its first answer.
+//   raw_request BUS rotate N
+// As flood, each request with another client id (1000, 1001, ...): one port all the same.
+//   raw_request BUS spam [SECONDS]
+// Keeps 8 requests in flight until killed (or for SECONDS, then prints "answered N"), sending the next as soon as an
+// answer comes, without a pause: much of its time is spent inside iceoryx's send(), where a SIGKILL leaves locks held.
+// They name no drive of the bus, so drivebusd refuses them at once and the line stays free for others. Prints
+// "spamming" after its first answer.
 #include <unistd.h>
 
 #include <chrono>
@@ -33,7 +35,7 @@
 
 namespace {
 
-int flood(iox::popo::UntypedClient& client, int n) {
+int flood(iox::popo::UntypedClient& client, int n, bool rotate = false) {
     using namespace drivebus;
     for (int i = 0; i < n; ++i) {
         auto loaned = client.loan(sizeof(shm::Request), alignof(shm::Request));
@@ -45,7 +47,8 @@ int flood(iox::popo::UntypedClient& client, int n) {
         r.size = sizeof r;
         r.kind = shm::RequestKind::Read;
         r.correlation = static_cast<std::uint64_t>(i);
-        r.client = static_cast<std::uint64_t>(::getpid());
+        // Rotating: another client id in each request, as a client escaping its share would.
+        r.client = rotate ? static_cast<std::uint64_t>(1000 + i) : static_cast<std::uint64_t>(::getpid());
         shm::assign(r.drive, "pump");
         shm::assign(r.client_name, "raw_request flood");
         r.start = 0xFD00;
@@ -168,39 +171,46 @@ bool send_read(iox::popo::UntypedClient& client, std::uint64_t correlation) {
     return !client.send(loaned.value()).has_error();
 }
 
-[[noreturn]] void spam(iox::popo::UntypedClient& client) {
+// Until killed, or for `seconds` when given: then "answered N", and 0 when N > 0.
+int spam(iox::popo::UntypedClient& client, int seconds) {
     constexpr int kInFlight = 8;
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
     std::uint64_t correlation = 0;
+    std::uint64_t answered = 0;
     int in_flight = 0;
-    bool first = true;
     for (;;) {
         while (in_flight < kInFlight && send_read(client, ++correlation)) {
             ++in_flight;
         }
         auto taken = client.take();
         if (taken.has_error()) {
+            if (seconds > 0 && std::chrono::steady_clock::now() >= until) {
+                break;
+            }
             continue;
         }
         client.releaseResponse(taken.value());
         --in_flight;
-        if (first) {
+        if (++answered == 1) {
             std::printf("spamming\n");
             std::fflush(stdout);
-            first = false;
         }
     }
+    std::printf("answered %llu\n", static_cast<unsigned long long>(answered));
+    return answered > 0 ? 0 : 1;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
     const bool flooding = (argc == 4 || argc == 5) && std::string(argv[2]) == "flood";
+    const bool rotating = argc == 4 && std::string(argv[2]) == "rotate";
     const bool keeping = argc == 4 && std::string(argv[2]) == "keep";
-    const bool spamming = argc == 3 && std::string(argv[2]) == "spam";
-    if (argc != 3 && !flooding && !keeping) {
+    const bool spamming = (argc == 3 || argc == 4) && std::string(argv[2]) == "spam";
+    if (argc != 3 && !flooding && !keeping && !spamming && !rotating) {
         std::fprintf(stderr,
                      "usage: raw_request BUS VALUE | raw_request BUS flood N [GO] | raw_request BUS keep N | "
-                     "raw_request BUS spam\n");
+                     "raw_request BUS spam [SECONDS] | raw_request BUS rotate N\n");
         return 2;
     }
     using namespace drivebus;
@@ -212,11 +222,14 @@ int main(int argc, char** argv) {
     while (client.getConnectionState() != iox::ConnectionState::CONNECTED && std::chrono::steady_clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
+    if (rotating) {
+        return flood(client, std::atoi(argv[3]), true);
+    }
     if (keeping) {
         return keep(client, std::atoi(argv[3]));
     }
     if (spamming) {
-        spam(client);
+        return spam(client, argc == 4 ? std::atoi(argv[3]) : 0);
     }
     if (flooding) {
         if (argc == 5) {

@@ -11,7 +11,9 @@
 // The mutexes are glibc's: a held one names its owner thread. A lock whose owner thread has
 // ended, seen so on two sweeps in a row, is handed back as that thread's unlock would have
 // done, and its waiters are woken. Only the process that holds RouDi (an embedded RouDi) can
-// reach every port; an external iox-roudi gets no such help.
+// reach every port; an external iox-roudi gets no such help. The thread id is the holder's PID
+// namespace's: drivebusd sweeps only while every registered runtime is in its own
+// (registrants.hpp).
 #pragma once
 
 #include <pthread.h>
@@ -48,6 +50,9 @@ public:
     // One pass over `locks`: frees those held by the same ended thread as on the last pass.
     // Returns how many it freed.
     std::size_t sweep(std::span<pthread_mutex_t* const> locks);
+
+    // Forgets what the last pass suspected: the next pass starts afresh.
+    void forget() { suspects_.clear(); }
 
 private:
     Alive alive_;
