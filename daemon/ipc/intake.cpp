@@ -17,6 +17,19 @@ namespace drivebus::ipc {
 
 using iox::popo::RequestHeader;
 
+namespace {
+
+// The unique id of the client queue a request's answer goes to: iceoryx keeps it to its server
+// port (a protected member), named here through a class of its own.
+struct ClientQueue : RequestHeader {
+    static std::uint64_t of(const RequestHeader& header) {
+        constexpr auto queue = &ClientQueue::m_uniqueClientQueueId;
+        return static_cast<std::uint64_t>(header.*queue);
+    }
+};
+
+}  // namespace
+
 struct Intake::Server {
     explicit Server(const std::string& bus) : server(service(bus, shm::kRequestEvent), iox::popo::ServerOptions{}) {}
     iox::popo::UntypedServer server;
@@ -31,7 +44,7 @@ struct Intake::Impl {
           server(port->server),
           core(
               b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); },
-              std::move(journal)) {
+              std::move(journal), [](const RequestHeader& route) { return ClientQueue::of(route); }) {
         if (listener
                 .attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
                              iox::popo::createNotificationCallback(on_request, *this))

@@ -12,9 +12,11 @@ namespace {
 
 using namespace std::chrono_literals;
 
+// A client on a port of its own (its number).
 Origin from(std::uint64_t client) {
     Origin o;
     o.client = client;
+    o.port = client;
     return o;
 }
 
@@ -46,6 +48,30 @@ TEST(QueueRoom, ReadersFillOnlyTheSharedRoomEachWithinItsShare) {
     }
     EXPECT_EQ(mine, 12U);
     EXPECT_EQ(alone.clients_in_flight(), 12U);
+}
+
+// The share is the port's: a client that writes another id in each request still holds one.
+TEST(QueueRoom, AClientThatChangesItsIdWithEachRequestStillHasOneShare) {
+    PendingBook<int> book(64);
+    std::size_t booked = 0;
+    for (std::uint64_t id = 1; id <= 48; ++id) {
+        Origin o = from(id);
+        o.port = 77;
+        booked += book.book(o, 0).has_value() ? 1U : 0U;
+    }
+    EXPECT_EQ(booked, book.share());
+    EXPECT_TRUE(book.book(from(5), 0).has_value()) << "another port still has its share";
+}
+
+// A withdrawal finds a request only through the port that sent it.
+TEST(QueueRoom, OnlyThePortThatSentARequestFindsIt) {
+    PendingBook<int> book(64);
+    Origin o = from(5);
+    o.correlation = 9;
+    const auto id = book.book(o, 0);
+    ASSERT_TRUE(id.has_value());
+    EXPECT_EQ(book.find(5, 5, 9), id);
+    EXPECT_EQ(book.find(6, 5, 9), std::nullopt) << "the same client id and correlation, from another port";
 }
 
 TEST(QueueRoom, SmallLimitsStillServeOneClient) {
@@ -119,6 +145,35 @@ TEST(QueueRoom, AControllerCommandsAtOnceWhileReadersFlood) {
     ASSERT_TRUE(other.has_value());
     EXPECT_EQ(other->status, shm::Status::QueueFull);
     EXPECT_EQ(submitted, 50U);
+}
+
+// At the intake, the port comes from the route (iceoryx: the client's response queue). One
+// port rotating its client id gets QueueFull past its share, while a controller on another
+// port commands at once.
+TEST(QueueRoom, ARotatingIdFloodFromOnePortIsHeldToItsShare) {
+    config::LoadOptions options;
+    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
+    auto c = config::parse_config(kConfig, "test.toml", options);
+    ASSERT_TRUE(c.has_value()) << c.error().message;
+    const auto bus = c->buses.at(0);
+    LeasePolicy leases(bus, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 3}; });
+    IntakeCore<int> intake(
+        bus, leases, [](const master::ClientRequest&) { return true; }, {},
+        [](const int& route) { return static_cast<std::uint64_t>(route); });
+    const rtu::Instant now{std::chrono::seconds(5)};
+    int full = 0;
+    for (std::uint64_t id = 1; id <= 48; ++id) {
+        int port = 1;
+        const auto a = intake.accept(request(shm::RequestKind::Read, id, 0xFD00), port, true, now);
+        full += a && a->status == shm::Status::QueueFull ? 1 : 0;
+    }
+    EXPECT_EQ(full, 48 - static_cast<int>(intake.book().share()));
+    int controller = 2;
+    EXPECT_FALSE(intake.accept(request(shm::RequestKind::Write, 1000, 0xFA01, 2000), controller, true, now))
+        << "the controller's reference: booked for the bus";
+    int reader = 3;
+    EXPECT_FALSE(intake.accept(request(shm::RequestKind::Read, 1001, 0xFD00), reader, true, now))
+        << "a reader on a third port: the shared room has room";
 }
 
 }  // namespace

@@ -30,12 +30,17 @@ public:
     // lease (or taken it over), before the command goes to the bus, so that no drive is sent
     // a command its lease record does not name.
     using Journal = std::function<void()>;
+    // The port a request's route answers to (Origin::port). Without one, the client's own id
+    // stands for it (for callers that have no ports).
+    using PortOf = std::function<std::uint64_t(const Route&)>;
 
-    IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit, Journal journal = {})
+    IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit, Journal journal = {},
+               PortOf port_of = {})
         : bus_(bus),
           leases_(leases),
           submit_(std::move(submit)),
           journal_(std::move(journal)),
+          port_of_(std::move(port_of)),
           book_(bus.queue_limit) {}
 
     // A request from a client. Returns the answer to send now with `route`; nullopt: the
@@ -44,6 +49,7 @@ public:
         Origin who{request.correlation, request.client, std::string(shm::view(request.client_name)), request.kind};
         who.token = request.lease_token;
         who.pid = request.pid;
+        who.port = port_of_ ? port_of_(route) : request.client;
         if (closed_) {
             return answer(who, shm::Status::BusDown);
         }
@@ -184,7 +190,7 @@ private:
     // the bus's word; a request not in the book, or already asked to withdraw, is answered
     // NotPending at once (so no client can fill the rings to the bus thread with withdrawals).
     std::optional<shm::Response> withdraw(const Origin& who, Route& route) {
-        const auto id = book_.find(who.client, who.correlation);
+        const auto id = book_.find(who.port, who.client, who.correlation);
         auto* e = id ? book_.entry(*id) : nullptr;
         if (e == nullptr || e->withdrawal_asked) {
             return answer(who, shm::Status::Rejected, shm::RejectReason::NotPending);
@@ -255,6 +261,7 @@ private:
     LeasePolicy& leases_;
     Submit submit_;
     Journal journal_;
+    PortOf port_of_;
     PendingBook<Route> book_;
     std::vector<std::size_t> republish_;
     std::uint64_t served_ = 0;

@@ -8,9 +8,11 @@
 //
 // Within the limit, no flood can lock control out: a quarter of it (the control room) is kept
 // for writes to a drive's command or reference under its lease (Room::Control), which every
-// other request (reads, other writes) cannot take; and one client holds at most a share of
-// what is left (a quarter of it, at least 4 or all of it), so readers cannot take it all
-// between two of them either.
+// other request (reads, other writes) cannot take; and one client port holds at most a share
+// of what is left (a quarter of it, at least 4 or all of it), so readers cannot take it all
+// between two of them either. The share is the port's (Origin::port, the queue its answers go
+// to), not the id a client writes in its requests: a client that changes that id with each
+// request still has one share.
 #pragma once
 
 #include <algorithm>
@@ -43,6 +45,9 @@ struct Origin {
     shm::LeaseToken granted{};  // the request took a lease: its token, for this answer alone
     bool grant = false;         // it took or renewed a lease that stands only once it is sent
     Room room = Room::Shared;   // the book's: which room it was booked in
+    // The port the request came through and its answer goes back to (iceoryx: the client's
+    // response queue). A client that names another there never gets its answers.
+    std::uint64_t port = 0;
 };
 
 template <typename Route>
@@ -61,13 +66,13 @@ public:
           share_(std::max(shared_room_ / 4, std::min<std::size_t>(shared_room_, 4))) {}
 
     // A client request: its id for the bus, or nullopt when there is no room for it (answer
-    // QueueFull): `limit` in flight, the shared room full (Room::Shared), or its client's share
+    // QueueFull): `limit` in flight, the shared room full (Room::Shared), or its port's share
     // taken.
     std::optional<std::uint64_t> book(Origin origin, Route route, Room room = Room::Shared) {
-        auto& mine = per_client_[origin.client];
+        auto& mine = per_port_[origin.port];
         if (clients_ >= limit_ || (room == Room::Shared && shared_ >= shared_room_) || mine >= share_) {
             if (mine == 0) {
-                per_client_.erase(origin.client);
+                per_port_.erase(origin.port);
             }
             return std::nullopt;
         }
@@ -94,17 +99,20 @@ public:
         if (!e.origin.fallback) {
             --clients_;
             shared_ -= e.origin.room == Room::Shared ? 1 : 0;
-            if (const auto c = per_client_.find(e.origin.client); c != per_client_.end() && --c->second == 0) {
-                per_client_.erase(c);
+            if (const auto c = per_port_.find(e.origin.port); c != per_port_.end() && --c->second == 0) {
+                per_port_.erase(c);
             }
         }
         return e;
     }
 
-    // The entry of a client's request, by the client's own id and correlation.
-    [[nodiscard]] std::optional<std::uint64_t> find(std::uint64_t client, std::uint64_t correlation) const {
+    // The entry of a client's request, by its port, the client's own id and correlation: only
+    // the port that sent a request finds it.
+    [[nodiscard]] std::optional<std::uint64_t> find(std::uint64_t port, std::uint64_t client,
+                                                    std::uint64_t correlation) const {
         for (const auto& [id, e] : entries_) {
-            if (!e.origin.fallback && e.origin.client == client && e.origin.correlation == correlation) {
+            if (!e.origin.fallback && e.origin.port == port && e.origin.client == client &&
+                e.origin.correlation == correlation) {
                 return id;
             }
         }
@@ -127,7 +135,7 @@ public:
     }
     [[nodiscard]] std::size_t clients_in_flight() const noexcept { return clients_; }
     [[nodiscard]] std::size_t limit() const noexcept { return limit_; }
-    // What Room::Shared requests may fill, and what one client may hold.
+    // What Room::Shared requests may fill, and what one port may hold.
     [[nodiscard]] std::size_t shared_room() const noexcept { return shared_room_; }
     [[nodiscard]] std::size_t share() const noexcept { return share_; }
 
@@ -142,8 +150,8 @@ private:
     std::size_t shared_room_;
     std::size_t share_;
     std::size_t clients_ = 0;
-    std::size_t shared_ = 0;                                     // client requests in the shared room
-    std::unordered_map<std::uint64_t, std::size_t> per_client_;  // in flight, by client
+    std::size_t shared_ = 0;                                   // client requests in the shared room
+    std::unordered_map<std::uint64_t, std::size_t> per_port_;  // in flight, by port
     std::uint64_t next_id_ = 1;
     std::unordered_map<std::uint64_t, Entry> entries_;
 };
