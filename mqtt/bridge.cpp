@@ -81,7 +81,14 @@ Bridge::~Bridge() {
         worker_.join();
     }
     link_.reset();
-    // The buses' subscriptions call back into this object (mutex_, wake_): gone first.
+    // The buses' subscriptions call back into this object (mutex_, wake_) and into their drive
+    // links: ended first (reset() returns once no callback runs), then the links go.
+    for (auto& b : buses_) {
+        for (auto& d : b->drives) {
+            d->subscription.reset();
+        }
+        b->status_subscription.reset();
+    }
     buses_.clear();
 }
 

@@ -80,7 +80,9 @@ template <typename F>
 void through(CallbackGate& gate, F&& f) {
     const std::lock_guard lock(gate.mutex);
     if (gate.impl != nullptr) {
+        gate.dispatching = std::this_thread::get_id();
         std::forward<F>(f)(*gate.impl);
+        gate.dispatching = std::thread::id{};
     }
 }
 

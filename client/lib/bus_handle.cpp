@@ -79,8 +79,11 @@ Subscription Bus::on_status(std::function<void(const shm::BusStatus&)> callback)
         impl_->status_callbacks.emplace(key, std::move(callback));
     }
     return Subscription([impl = impl_, key] {
-        std::lock_guard lock(impl->mutex);
-        impl->status_callbacks.erase(key);
+        {
+            std::lock_guard lock(impl->mutex);
+            impl->status_callbacks.erase(key);
+        }
+        quiesce(*impl->gate);
     });
 }
 

@@ -4,6 +4,7 @@
 // renews a lease on its own: only the application's writes and keep_alive() calls do.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <map>
 #include <mutex>
@@ -38,10 +39,23 @@ struct DriveFeed {
 // under way has returned, before anything a callback touches goes away. When drivebusd is gone
 // the listener cannot be destroyed and its thread keeps running: the gate and the feeds its
 // callbacks name then stay until the process ends, with the ports.
+// The gate's mutex is held through a whole dispatch, the user's callbacks included: whoever
+// takes it after unregistering a callback knows that callback is not running and will not run
+// again (quiesce()).
 struct CallbackGate {
     std::mutex mutex;
-    Bus::Impl* impl = nullptr;  // null: closed
+    Bus::Impl* impl = nullptr;                   // null: closed
+    std::atomic<std::thread::id> dispatching{};  // the listener's thread while it dispatches
 };
+
+// Returns once no callback is under way (one copied before it was unregistered has returned).
+// From a callback itself, at once: it is the dispatch.
+inline void quiesce(CallbackGate& gate) {
+    if (gate.dispatching.load() == std::this_thread::get_id()) {
+        return;
+    }
+    const std::lock_guard lock(gate.mutex);
+}
 
 struct Bus::Impl {
     Impl(std::string bus, ConnectOptions connect_options);

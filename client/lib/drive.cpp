@@ -88,8 +88,11 @@ Subscription Drive::on_snapshot(std::function<void(const shm::DriveSnapshot&)> c
         feed->callbacks.emplace(key, std::move(callback));
     }
     return Subscription([bus = bus_, feed, key] {
-        std::lock_guard lock(bus->mutex);
-        feed->callbacks.erase(key);
+        {
+            std::lock_guard lock(bus->mutex);
+            feed->callbacks.erase(key);
+        }
+        quiesce(*bus->gate);
     });
 }
 

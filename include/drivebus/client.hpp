@@ -111,7 +111,10 @@ struct WriteOptions {
     std::optional<Milliseconds> deadline;
 };
 
-// A callback registration; unregisters when destroyed.
+// A callback registration; unregisters when destroyed. Once reset() (or the destructor) has
+// returned, the callback is not running and is never called again, so what it touches may go;
+// it waits for a call under way to return. Called from within a callback, it returns at once.
+// So never reset a subscription while holding a lock its callback takes.
 class DRIVEBUS_API Subscription {
 public:
     Subscription() = default;

@@ -149,6 +149,16 @@ TEST(Ipc, ClientsKilledInsideSendStallNeitherRouDiNorTheOthers) {
     EXPECT_NE(freed(), std::string::npos) << stack.daemon_output();
 }
 
+// Subscription::reset() returns only once its callback has: what the callback touches may go
+// then. (drivebus-mqtt freed a drive's link while a snapshot callback was still writing into
+// it; ThreadSanitizer saw it at the bridge's stop.)
+TEST(Ipc, ASubscriptionResetWaitsForItsCallbackUnderWay) {
+    Stack stack;
+    Client c({stack.bus(), "unsubscribe"});
+    ASSERT_EQ(c.wait(30s), 0) << c.output() << "\n" << stack.daemon_output();
+    EXPECT_NE(c.output().find("reset waited for the callback"), std::string::npos) << c.output();
+}
+
 // Host pids `count` in a row that no process or thread has: a child PID namespace whose pids
 // start there numbers its threads as no thread here is numbered, as a container's often are.
 pid_t free_pid_window(int count) {

@@ -2,6 +2,8 @@
 // A client process for the multi-process tests, driven by its arguments:
 //
 //   test_client BUS snapshots N           print "snapshot SEQ FD00" for N new pump snapshots
+//   test_client BUS unsubscribe           resets a snapshot subscription while its callback is
+//                                         under way: "reset waited for the callback", or exit 1
 //   test_client BUS read REG N            N reads of REG on the pump: "value V" each (a read whose
 //                                         reply failed on the line is asked again, see below)
 //   test_client BUS writes REG V...       one write per value, in order, each acknowledged: "ok V"
@@ -133,6 +135,30 @@ int main(int argc, char** argv) {
             std::printf("snapshot %llu %u\n", static_cast<unsigned long long>(seen), fd00 ? fd00->value : 0U);
         }
         return 0;
+    }
+    // A snapshot callback that stays under way for 300 ms; the main thread resets its
+    // subscription meanwhile and says whether reset() returned before the callback did.
+    if (mode == "unsubscribe" && argc == 3) {
+        std::atomic<bool> entered{false};
+        std::atomic<bool> returned{false};
+        auto sub = pump->on_snapshot([&](const drivebus::shm::DriveSnapshot&) {
+            if (entered.exchange(true)) {
+                return;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(300));  // a callback at work
+            returned = true;
+        });
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+        while (!entered && std::chrono::steady_clock::now() < until) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        if (!entered) {
+            std::printf("no snapshot\n");
+            return 1;
+        }
+        sub.reset();
+        std::printf(returned ? "reset waited for the callback\n" : "reset returned during the callback\n");
+        return returned ? 0 : 1;
     }
     // Every new snapshot of the pump, for ever: "snapshot SEQUENCE FD00 FD00_READ_NS".
     if (mode == "watch" && argc == 3) {
