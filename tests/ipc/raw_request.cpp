@@ -184,8 +184,13 @@ int spam(iox::popo::UntypedClient& client, int seconds) {
         }
         auto taken = client.take();
         if (taken.has_error()) {
-            if (seconds > 0 && std::chrono::steady_clock::now() >= until) {
-                break;
+            if (seconds > 0) {
+                if (std::chrono::steady_clock::now() >= until) {
+                    break;
+                }
+                // Timed, it leaves the cores to others between answers: its iceoryx runtime's
+                // keep-alive too, which RouDi wants at least each 1.5 s, however loaded.
+                std::this_thread::sleep_for(std::chrono::microseconds(100));
             }
             continue;
         }
