@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // drivebus-sim: simulated Altivar drives on a pty (or a given tty), paced at the line's wire
 // speed, with fault injection. See docs/simulator.md.
+#include <poll.h>
 #include <sched.h>
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
@@ -30,6 +31,12 @@
 using namespace drivebus;
 
 namespace {
+
+// Whether the other end of the line has gone (a pty's master closed, a USB adapter unplugged).
+bool line_hung_up(int fd) {
+    pollfd p{.fd = fd, .events = POLLIN, .revents = 0};
+    return ::poll(&p, 1, 0) == 1 && (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0;
+}
 
 using sim::fail;
 using sim::kExitRuntime;
@@ -147,6 +154,11 @@ int run(const sim::Options& o) {
         for (;;) {
             const auto n = sys::posix_call("read", [&] { return ::read(line.fd.get(), buffer.data(), buffer.size()); });
             if (!n && n.error().error == EAGAIN) {
+                break;
+            }
+            // A tty in raw mode (VMIN = VTIME = 0, as --device sets it) answers 0 bytes when
+            // nothing is waiting, O_NONBLOCK or not: the line is gone only if poll says so.
+            if (n && *n == 0 && !line_hung_up(line.fd.get())) {
                 break;
             }
             if (!n || *n == 0) {

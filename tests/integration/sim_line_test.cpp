@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 
 #include "hex.hpp"
 #include "rtu/codec.hpp"
@@ -14,6 +15,7 @@ namespace drivebus::test {
 namespace {
 
 using namespace std::chrono_literals;
+namespace fs = std::filesystem;
 
 const rtu::LineFormat k19200{19200, 8, rtu::Parity::None, 1};
 const rtu::RequestAdu kReadFD00{1, rtu::ReadHoldingRegisters{0xFD00, 1}};
@@ -188,6 +190,35 @@ TEST_F(SimLine, CountersOnDemandAndOnExit) {
     const std::string out = sim.output();
     EXPECT_NE(out.find("stopped; requests=2 "), std::string::npos) << out;
     EXPECT_NE(out.find(" crc=1 "), std::string::npos) << out;
+}
+
+// --device on a tty that is not a pty master (here one end of a pair socat makes, as
+// docs/simulator.md suggests; a real UART behaves the same): a raw tty answers a read with 0
+// bytes when nothing waits, which is no end of the line. Every request gets its reply.
+TEST(SimOnADevice, AnswersEveryRequest) {
+    const fs::path dir = fs::temp_directory_path() / ("drivebus-sim-device-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const fs::path sim_side = dir / "sim";
+    const fs::path master_side = dir / "master";
+    Child socat(
+        {"/usr/bin/socat", "pty,raw,echo=0,link=" + sim_side.string(), "pty,raw,echo=0,link=" + master_side.string()});
+    ASSERT_TRUE(wait_until([&] { return fs::exists(sim_side) && fs::exists(master_side); }, 5s)) << socat.output();
+    {
+        SimProcess sim(
+            {"--device", sim_side.string(), "--drive", "1:atv21", "--parity", "none", "--turnaround", "1ms"});
+        EXPECT_EQ(sim.link(), sim_side);
+        TestMaster master{master_side, k19200};
+        for (int i = 0; i < 5; ++i) {
+            const auto r = master.transact(kReadFD00);
+            ASSERT_TRUE(r.decoded) << "request " << i << ": read [" << to_hex(r.bytes) << "]; simulator said "
+                                   << sim.output();
+        }
+        EXPECT_NE(sim.command("stats").find("requests=5 "), std::string::npos);
+        EXPECT_EQ(sim.stop(), 0) << sim.output();
+    }
+    socat.stop();
+    std::error_code ec;
+    fs::remove_all(dir, ec);
 }
 
 TEST(SimCommandLine, BadArgumentsAreOneClearLine) {

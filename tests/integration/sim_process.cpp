@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdlib>
 #include <cstring>
@@ -146,7 +147,13 @@ SimProcess::SimProcess(std::vector<std::string> args, std::optional<fs::path> di
       control_(dir_ / "control"),
       log_(dir_ / "sim.log"),
       owns_dir_(!dir) {
-    args.insert(args.begin(), {"--link", link_.string(), "--control", control_.string()});
+    // With --device the simulator opens that tty, and the master the other end of it.
+    if (const auto device = std::ranges::find(args, "--device"); device != args.end() && device + 1 != args.end()) {
+        link_ = *(device + 1);
+        args.insert(args.begin(), {"--control", control_.string()});
+    } else {
+        args.insert(args.begin(), {"--link", link_.string(), "--control", control_.string()});
+    }
     pid_ = spawn(DRIVEBUS_SIM_PATH, args, log_);
     // The simulator prints its one-line banner once the line and the control socket are up.
     const bool ready = wait_until(

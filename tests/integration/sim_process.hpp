@@ -25,6 +25,8 @@ class SimProcess {
 public:
     // Starts drivebus-sim with a pty link and a control socket in a fresh directory (or in
     // `dir`, to stand in for a device that comes back), plus `args`, and waits until both exist.
+    // When `args` name a --device, the simulator opens that tty instead of making a pty, and
+    // link() is that device.
     explicit SimProcess(std::vector<std::string> args, std::optional<std::filesystem::path> dir = std::nullopt);
     ~SimProcess();
     SimProcess(const SimProcess&) = delete;
