@@ -3,11 +3,14 @@
 // named "bus ..." is counted (operator new is replaced in this test program only), and after
 // a warm-up the count must not move over many poll cycles of two drives. Snapshots are taken
 // off the hand-over ring by the test, as the ipc thread would.
+#include <execinfo.h>
 #include <gtest/gtest.h>
 #include <poll.h>
 #include <pthread.h>
 #include <sys/prctl.h>
+#include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
@@ -32,7 +35,14 @@ bool on_bus_thread() noexcept {
 
 void* operator new(std::size_t n) {
     if (g_counting.load(std::memory_order_relaxed) && on_bus_thread()) {
-        g_bus_allocations.fetch_add(1, std::memory_order_relaxed);
+        // Where, for the first few: the failure then names the path that allocated.
+        if (g_bus_allocations.fetch_add(1, std::memory_order_relaxed) < 3) {
+            std::array<void*, 32> frames{};
+            const int depth = ::backtrace(frames.data(), static_cast<int>(frames.size()));
+            constexpr char kHeader[] = "an allocation on the bus thread, from:\n";
+            (void)!::write(STDERR_FILENO, kHeader, sizeof kHeader - 1);
+            ::backtrace_symbols_fd(frames.data(), depth, STDERR_FILENO);
+        }
     }
     if (void* p = std::malloc(n == 0 ? 1 : n)) {
         return p;
