@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // drivebus-sim: simulated Altivar drives on a pty (or a given tty), paced at the line's wire
 // speed, with fault injection. See docs/simulator.md.
-#include <poll.h>
 #include <sched.h>
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
@@ -31,12 +30,6 @@
 using namespace drivebus;
 
 namespace {
-
-// Whether the other end of the line has gone (a pty's master closed, a USB adapter unplugged).
-bool line_hung_up(int fd) {
-    pollfd p{.fd = fd, .events = POLLIN, .revents = 0};
-    return ::poll(&p, 1, 0) == 1 && (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0;
-}
 
 using sim::fail;
 using sim::kExitRuntime;
@@ -149,7 +142,7 @@ int run(const sim::Options& o) {
     };
 
     std::vector<std::expected<void, sys::SysError>> added;
-    added.push_back(loop.add(line.fd.get(), [&] {
+    added.push_back(loop.add(line.fd.get(), [&](sys::Readiness ready) {
         std::array<std::uint8_t, 4096> buffer{};
         for (;;) {
             const auto n = sys::posix_call("read", [&] { return ::read(line.fd.get(), buffer.data(), buffer.size()); });
@@ -157,8 +150,8 @@ int run(const sim::Options& o) {
                 break;
             }
             // A tty in raw mode (VMIN = VTIME = 0, as --device sets it) answers 0 bytes when
-            // nothing is waiting, O_NONBLOCK or not: the line is gone only if poll says so.
-            if (n && *n == 0 && !line_hung_up(line.fd.get())) {
+            // nothing is waiting, O_NONBLOCK or not: the line is gone only if epoll said so.
+            if (n && *n == 0 && !ready.hung_up) {
                 break;
             }
             if (!n || *n == 0) {
