@@ -27,7 +27,7 @@ them: scripts/package-check runs it on the .debs of a fresh build.
   the user drivebus-mqtt its only member; the packaged unit puts the bridge in it; the packaged
   mqtt.md and drivebus-mqtt(1) say root:drivebus-mqtt, never the watchers' root:drivebus.
 
-usage: check_package.py DEB_DIR VERSION SOURCE_DIR
+usage: check_package.py DEB_DIR VERSION SOURCE_DIR [ARCH]
 """
 import glob
 import gzip
@@ -44,9 +44,9 @@ PACKAGES = {
     "drivebusd": [
         "/etc/drivebus/drivebusd.toml",
         "/etc/drivebus/roudi.toml",
-        "/lib/systemd/system/drivebus-roudi.service",
-        "/lib/systemd/system/drivebusd.service",
-        "/lib/systemd/system/drivebusd@.service",
+        "{unitdir}/drivebus-roudi.service",
+        "{unitdir}/drivebusd.service",
+        "{unitdir}/drivebusd@.service",
         "/usr/lib/sysusers.d/drivebus.conf",
         "/usr/sbin/drivebusd",
         "/usr/share/man/man5/drivebusd.toml.5.gz",
@@ -83,14 +83,14 @@ PACKAGES = {
     ],
     "drivebus-gateway": [
         "/etc/drivebus/gateway.toml",
-        "/lib/systemd/system/drivebus-gateway.service",
+        "{unitdir}/drivebus-gateway.service",
         "/usr/sbin/drivebus-gateway",
         "/usr/share/man/man8/drivebus-gateway.8.gz",
     ],
     "drivebus-mqtt": [
         "/usr/bin/drivebus-mqtt",
         "/usr/share/man/man1/drivebus-mqtt.1.gz",
-        "/lib/systemd/system/drivebus-mqtt.service",
+        "{unitdir}/drivebus-mqtt.service",
     ],
 }
 # Files that must be there (the patterns above only say where a file may be).
@@ -204,7 +204,21 @@ def optional_symbols(text, bits):
     return normalised_symbols("\n".join(lines), bits)
 
 
-def mqtt_secret_problems(roots):
+def unit_directory(deb_dir, arch):
+    """Where the build put the systemd units: /usr/lib/systemd/system where its debhelper installs
+    units from /usr (13.11.6 and later: Debian 13, whose lintian calls /lib an aliased location),
+    /lib/systemd/system with Debian 12's (13.11.4), as debian/rules chooses. The debhelper of the
+    build is the one its .buildinfo records."""
+    buildinfo = glob.glob(os.path.join(deb_dir, f"*_{arch}.buildinfo"))
+    text = open(buildinfo[0], encoding="utf-8").read() if buildinfo else ""
+    found = re.search(r"^ debhelper \(= ([^)]+)\)", text, re.M)
+    if not found:
+        return "/lib/systemd/system"
+    newer = subprocess.run(["dpkg", "--compare-versions", found.group(1), "ge", "13.11.6"], check=False)
+    return "/usr/lib/systemd/system" if newer.returncode == 0 else "/lib/systemd/system"
+
+
+def mqtt_secret_problems(roots, unitdir):
     """The bridge's password file and TLS key belong to a group only its user is in."""
     problems = []
     here = os.path.dirname(os.path.abspath(__file__))
@@ -217,7 +231,7 @@ def mqtt_secret_problems(roots):
         if p.returncode != 0:
             problems += [f"drivebus.conf: {line.split(': ', 1)[-1]}" for line in p.stdout.splitlines()
                          if line.startswith(conf + ": ")] or [f"drivebus.conf: check_sysusers.py exit {p.returncode}"]
-    unit = os.path.join(roots.get("drivebus-mqtt", ""), "lib/systemd/system/drivebus-mqtt.service")
+    unit = os.path.join(roots.get("drivebus-mqtt", ""), unitdir.lstrip("/") + "/drivebus-mqtt.service")
     if os.path.exists(unit):
         settings = dict(re.findall(r"^(User|SupplementaryGroups)=(.*)$", open(unit, encoding="utf-8").read(), re.M))
         if settings.get("User") != "drivebus-mqtt" or "drivebus-mqtt" not in settings.get("SupplementaryGroups",
@@ -239,14 +253,16 @@ def mqtt_secret_problems(roots):
 
 
 def main(argv):
-    if len(argv) != 4:
+    if len(argv) not in (4, 5):
         print(__doc__.strip().splitlines()[-1], file=sys.stderr)
         return 2
-    deb_dir, version, source = argv[1:]
+    deb_dir, version, source = argv[1:4]
     problems = []
-    arch = run(["dpkg", "--print-architecture"]).stdout.strip()
-    multiarch = run(["dpkg-architecture", "-qDEB_HOST_MULTIARCH"]).stdout.strip()
-    bits = run(["dpkg-architecture", "-qDEB_HOST_ARCH_BITS"]).stdout.strip()
+    arch = argv[4] if len(argv) == 5 else run(["dpkg", "--print-architecture"]).stdout.strip()
+    multiarch = run(["dpkg-architecture", f"-a{arch}", "-qDEB_HOST_MULTIARCH"]).stdout.strip()
+    bits = run(["dpkg-architecture", f"-a{arch}", "-qDEB_HOST_ARCH_BITS"]).stdout.strip()
+    unitdir = unit_directory(deb_dir, arch)
+    print(f"{arch} ({multiarch}), units in {unitdir}")
 
     debs = {}
     for deb in sorted(glob.glob(os.path.join(deb_dir, "*.deb"))):
@@ -312,7 +328,7 @@ def main(argv):
             listing = run(["dpkg-deb", "-c", deb]).stdout.splitlines()
             files = [line.split(None, 5)[5].split(" -> ")[0][1:] for line in listing
                      if not line.startswith("d")]
-            patterns = [p.format(multiarch=multiarch) for p in PACKAGES.get(name, [])]
+            patterns = [p.format(multiarch=multiarch, unitdir=unitdir) for p in PACKAGES.get(name, [])]
             for f in files:
                 if f in owner:
                     problems.append(f"{f}: in {owner[f]} and {name}")
@@ -328,7 +344,7 @@ def main(argv):
                 if not any(matches(f, p) for p in patterns):
                     problems.append(f"{name}: {f} does not belong in this package")
             for p in REQUIRED.get(name, []):
-                p = p.format(multiarch=multiarch)
+                p = p.format(multiarch=multiarch, unitdir=unitdir)
                 if not any(matches(f, p) for f in files):
                     problems.append(f"{name}: no {p}")
             for doc in ("copyright", "changelog.gz"):
@@ -417,11 +433,11 @@ def main(argv):
 
         # The units: verified, and what they run and read is in the packages.
         root = roots.get("drivebusd", "")
-        units = sorted(glob.glob(os.path.join(root, "lib/systemd/system/*.service")))
+        units = sorted(glob.glob(os.path.join(root, unitdir.lstrip("/"), "*.service")))
         gateway_root = roots.get("drivebus-gateway", "")
-        gateway_units = sorted(glob.glob(os.path.join(gateway_root, "lib/systemd/system/*.service")))
+        gateway_units = sorted(glob.glob(os.path.join(gateway_root, unitdir.lstrip("/"), "*.service")))
         mqtt_root = roots.get("drivebus-mqtt", "")
-        mqtt_units = sorted(glob.glob(os.path.join(mqtt_root, "lib/systemd/system/*.service"))) if mqtt_root else []
+        mqtt_units = sorted(glob.glob(os.path.join(mqtt_root, unitdir.lstrip("/"), "*.service"))) if mqtt_root else []
         analyze = shutil.which("systemd-analyze")
         for unit in units + gateway_units + mqtt_units:
             base = os.path.basename(unit)
@@ -469,7 +485,7 @@ def main(argv):
             if not found:
                 problems.append(f"{path} (named by {page}) is not in a package")
 
-        problems += mqtt_secret_problems(roots)
+        problems += mqtt_secret_problems(roots, unitdir)
 
         daemon = os.path.join(root, "usr/sbin/drivebusd")
         if os.path.exists(daemon):
