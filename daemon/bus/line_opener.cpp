@@ -48,8 +48,8 @@ std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_d
     switch (bus.direction) {
     case config::DirectionMode::Kernel: {
         auto kernel = serial::make_kernel_direction(fd, bus.kernel);
-        if (kernel || !bus.kernel_fallback) {
-            return kernel;
+        if (kernel || !bus.kernel_fallback || !kernel.error().no_rs485_support) {
+            return kernel;  // a driver that changed what was asked is refused, fallback or not
         }
         log::warning("bus " + bus.name + ": " + kernel.error().message + "; falling back to " +
                          std::string(config::to_string(*bus.kernel_fallback)),
@@ -67,9 +67,6 @@ std::expected<std::unique_ptr<serial::Direction>, serial::DirectionError> make_d
 }
 
 std::expected<void, std::string> check_line(const config::BusConfig& bus) {
-    if (bus.direction == config::DirectionMode::Kernel && bus.kernel_fallback) {
-        return {};  // a driver without RS485 support falls back: nothing permanent to find
-    }
     std::error_code ec;
     if (!std::filesystem::exists(bus.device, ec)) {
         return {};
@@ -79,14 +76,24 @@ std::expected<void, std::string> check_line(const config::BusConfig& bus) {
         return {};  // busy, or gone again: the bus thread retries
     }
     const auto uart = serial::kernel_uart_control();
-    auto direction = make_direction(bus, port->fd(), *uart);
-    if (!direction && direction.error().permanent) {
-        return std::unexpected("bus " + bus.name + ": " + direction.error().message +
-                               (bus.direction == config::DirectionMode::Kernel && !bus.kernel_fallback
-                                    ? "; set kernel_fallback = \"rts\" or \"none\", or another direction"
-                                    : ""));
+    const bool kernel = bus.direction == config::DirectionMode::Kernel;
+    // The kernel method alone, so that a fallback the bus thread takes is not logged twice.
+    auto direction =
+        kernel ? serial::make_kernel_direction(port->fd(), bus.kernel) : make_direction(bus, port->fd(), *uart);
+    if (direction || !direction.error().permanent) {
+        return {};
     }
-    return {};
+    const auto& error = direction.error();
+    if (kernel && error.no_rs485_support && bus.kernel_fallback) {
+        return {};  // the bus thread falls back, as configured
+    }
+    std::string hint;
+    if (kernel) {
+        hint = error.no_rs485_support ? "; set kernel_fallback = \"rts\" or \"none\", or another direction"
+                                      : "; ask for what the driver keeps (rts_on_send, rts_after_send, rx_during_tx, "
+                                        "delay_before_send_ms, delay_after_send_ms), or another direction";
+    }
+    return std::unexpected("bus " + bus.name + ": " + error.message + hint);
 }
 
 }  // namespace drivebus::bus

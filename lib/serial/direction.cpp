@@ -145,7 +145,9 @@ std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
         const std::string why = std::string(call) + ": " + std::strerror(error);
         if (error == ENOTTY || error == EINVAL || error == kENOIOCTLCMD) {
             return std::unexpected(
-                DirectionError{device_of(fd) + ": the driver has no RS485 support (" + why + ")", true});
+                DirectionError{.message = device_of(fd) + ": the driver has no RS485 support (" + why + ")",
+                               .permanent = true,
+                               .no_rs485_support = true});
         }
         return std::unexpected(DirectionError{device_of(fd) + ": kernel RS485 (" + why + ")"});
     };

@@ -194,6 +194,8 @@ TEST(KernelDirectionTest, APtyHasNoRs485Support) {
     EXPECT_EQ(direction.error().message, pty->slave_path.string() +
                                              ": the driver has no RS485 support (TIOCGRS485: Inappropriate ioctl "
                                              "for device)");
+    EXPECT_TRUE(direction.error().permanent);
+    EXPECT_TRUE(direction.error().no_rs485_support);  // the one case a kernel_fallback takes
 }
 
 TEST(GpioOptionsTest, AMissingChipIsOneClearLine) {

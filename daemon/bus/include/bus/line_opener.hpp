@@ -22,8 +22,9 @@ namespace drivebus::bus {
 
 // What can be known of the line before the bus thread starts. When its device is there, the
 // port is opened and its direction control made once, then both released. A permanent refusal
-// (a driver without RS485 support and no kernel_fallback, a GPIO chip or line that does not
-// exist) is the configuration's: its one line, for drivebusd to exit 78 rather than retry for
+// (a driver without RS485 support and no kernel_fallback; a driver that does not keep the RS485
+// settings asked, fallback or not; a GPIO chip or line that does not exist) is the
+// configuration's: its one line, for drivebusd to exit 78 rather than retry for
 // ever. A device that is not there yet (an adapter not plugged in), or busy, is left to the
 // bus thread, which waits for it.
 [[nodiscard]] std::expected<void, std::string> check_line(const config::BusConfig& bus);

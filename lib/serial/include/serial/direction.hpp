@@ -35,6 +35,10 @@ struct DirectionError {
     // that does not exist, or a build without libgpiod (the configuration asks for what this
     // machine has not); yes for a line in use or an I/O error.
     bool permanent = false;
+    // The driver has no RS485 support at all (TIOCSRS485: ENOTTY, EINVAL, ENOIOCTLCMD): the one
+    // case a configured kernel_fallback is for. A driver that changed the settings has support
+    // and refused what was asked, which no fallback should hide.
+    bool no_rs485_support = false;
 };
 
 class Direction {
@@ -73,8 +77,8 @@ struct RtsOptions {
 };
 
 // Configures TIOCSRS485 on `fd` and reads it back (TIOCGRS485). Fails with a clear message
-// when the driver has no RS485 support (ENOTTY, EINVAL) or did not take the settings; the
-// caller then applies the configured fallback.
+// when the driver has no RS485 support (ENOTTY, EINVAL: no_rs485_support, where the caller
+// applies the configured fallback) or did not keep the settings asked (permanent too).
 [[nodiscard]] std::expected<std::unique_ptr<Direction>, DirectionError> make_kernel_direction(
     int fd, const KernelRs485Options& options);
 // Requests the line through libgpiod as an output of consumer "drivebusd", inactive.
