@@ -5,16 +5,27 @@
 // (hvc0, a file on the host) and powers the guest off.
 //
 // The PL011 (/dev/ttyAMA0, the amba-pl011 driver) is wired by qemu to a host pty where
-// drivebus-sim plays an Altivar 21 at the address and with the register value that
-// /board.conf names. Under TCG the UART is not the wire: these cases check what the driver
-// accepts, keeps and reports, and that bytes cross it both ways, not timing.
+// drivebus-sim plays an Altivar 21 (the pump) and an Altivar 58 (the fan) at the addresses
+// and with the register values that /board.conf names. Under TCG the UART is not the wire:
+// these cases check what the driver accepts, keeps and reports, and that bytes cross it both
+// ways, not timing.
+//
+// The Pl011 cases drive the line through drivebus's line libraries, linked in; the Packaged
+// cases run drivebusd and drivebusctl as the arm64 Debian packages install them (unpacked
+// into the initramfs by the host with the libraries they link, from Debian 13's arm64
+// packages), with drivebusd's embedded RouDi.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <linux/serial.h>
+#include <poll.h>
+#include <signal.h>
 #include <sys/ioctl.h>
 #include <sys/mount.h>
 #include <sys/reboot.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -26,6 +37,8 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <regex>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -47,6 +60,11 @@ struct Board {
     std::uint16_t reg = 0;
     std::uint16_t value = 0;
     std::uint16_t write_value = 0;
+    // The packaged programs' case: the fan's address, a register of it and its value.
+    bool packages = false;
+    rtu::SlaveAddress fan = 2;
+    std::string fan_register;
+    std::uint16_t fan_value = 0;
 };
 Board board;
 
@@ -81,7 +99,8 @@ std::uint16_t word(const std::map<std::string, std::string>& conf, const std::st
 serial::PortOptions line_options() {
     serial::PortOptions options;
     options.device = board.line;
-    options.format = rtu::LineFormat{.baud = 19200, .data_bits = 8, .parity = rtu::Parity::Even, .stop_bits = 1};
+    // An Altivar 21 and an Altivar 58 on one line: the ATV58's 8N1 (the ATV21's F801 = 0).
+    options.format = rtu::LineFormat{.baud = 19200, .data_bits = 8, .parity = rtu::Parity::None, .stop_bits = 1};
     return options;
 }
 
@@ -140,7 +159,7 @@ std::expected<rtu::ResponseAdu, std::string> transact(serial::Port& port, const 
     return std::unexpected("no complete reply within 20 s (" + std::to_string(reply.size()) + " byte(s))");
 }
 
-// The line as drivebusd opens it: 19200 8E1, raw, parity errors marked for the framer.
+// The line as drivebusd opens it: 19200 8N1, raw, framing errors marked for the framer.
 TEST(Pl011, OpensWithTheLinesSettings) {
     auto port = serial::Port::open(line_options());
     ASSERT_TRUE(port) << port.error().message;
@@ -149,8 +168,7 @@ TEST(Pl011, OpensWithTheLinesSettings) {
     EXPECT_EQ(::cfgetospeed(&tio), B19200);
     EXPECT_EQ(::cfgetispeed(&tio), B19200);
     EXPECT_EQ(tio.c_cflag & CSIZE, static_cast<tcflag_t>(CS8));
-    EXPECT_NE(tio.c_cflag & PARENB, 0U);
-    EXPECT_EQ(tio.c_cflag & PARODD, 0U);
+    EXPECT_EQ(tio.c_cflag & PARENB, 0U);
     EXPECT_EQ(tio.c_cflag & CSTOPB, 0U);
     EXPECT_NE(tio.c_iflag & INPCK, 0U);
     EXPECT_NE(tio.c_iflag & PARMRK, 0U);
@@ -193,6 +211,7 @@ TEST(Pl011, ADelayTheKernelClampsIsRefused) {
     const auto kept = rs485_of(port->fd());
     std::printf("refused: %s\n", direction.error().message.c_str());
     EXPECT_TRUE(direction.error().permanent);
+    EXPECT_FALSE(direction.error().no_rs485_support);  // no kernel_fallback hides it
     EXPECT_NE(kept.delay_rts_after_send, 1000U);
     EXPECT_NE(direction.error().message.find("delay_rts_after_send 1000 -> " +
                                              std::to_string(kept.delay_rts_after_send) + " ms"),
@@ -212,6 +231,7 @@ TEST(Pl011, EqualRtsLevelsAreRefused) {
     ASSERT_FALSE(direction) << "the PL011 kept RTS high both during and after sending";
     std::printf("refused: %s\n", direction.error().message.c_str());
     EXPECT_TRUE(direction.error().permanent);
+    EXPECT_FALSE(direction.error().no_rs485_support);
     EXPECT_NE(direction.error().message.find("the driver changed the RS485 settings"), std::string::npos)
         << direction.error().message;
 }
@@ -261,6 +281,262 @@ TEST(Pl011, AWriteReachesTheSimulatedDrive) {
     ASSERT_NE(values, nullptr);
     ASSERT_EQ(values->values.size(), 1U);
     EXPECT_EQ(values->values[0], board.write_value);
+    // The drive as it was found, for the packaged drivebusd's case.
+    auto restored = transact(*port, rtu::RequestAdu{board.drive, rtu::WriteSingleRegister{board.reg, board.value}});
+    ASSERT_TRUE(restored) << restored.error();
+}
+
+// --- the packaged programs -------------------------------------------------------------------
+
+// A program's exit status and what it printed (stdout and stderr together).
+struct Ran {
+    int status = -1;  // the exit code, or -1: killed, not started, or past its deadline
+    std::string out;
+};
+
+std::vector<char*> c_strings(std::vector<std::string>& strings) {
+    std::vector<char*> out;
+    for (auto& s : strings) {
+        out.push_back(s.data());
+    }
+    out.push_back(nullptr);
+    return out;
+}
+
+std::vector<std::string> program_env(const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> env = {"PATH=/usr/sbin:/usr/bin", "HOME=/root", "LC_ALL=C"};
+    env.insert(env.end(), extra.begin(), extra.end());
+    return env;
+}
+
+// Starts argv with its output to `log` (a file); -1 if fork failed.
+pid_t spawn(std::vector<std::string> argv, const std::string& log, std::vector<std::string> env) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        const int in = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+        if (out < 0 || in < 0 || ::dup2(in, 0) < 0 || ::dup2(out, 1) < 0 || ::dup2(out, 2) < 0) {
+            ::_exit(126);
+        }
+        auto args = c_strings(argv);
+        auto envp = c_strings(env);
+        ::execve(args[0], args.data(), envp.data());
+        ::_exit(127);
+    }
+    return pid;
+}
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+// Waits for pid to exit until the deadline: its exit code, or -1 (killed, or still running).
+int wait_exit(pid_t pid, std::chrono::steady_clock::time_point deadline, bool* still_running = nullptr) {
+    for (;;) {
+        int status = 0;
+        const pid_t done = ::waitpid(pid, &status, WNOHANG);
+        if (done == pid) {
+            return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        }
+        if (done < 0 || std::chrono::steady_clock::now() > deadline) {
+            if (still_running != nullptr) {
+                *still_running = done == 0;
+            }
+            return -1;
+        }
+        std::this_thread::sleep_for(10ms);
+    }
+}
+
+// Runs a program to its end (TCG is slow: a generous deadline, never reached when it works).
+Ran run(std::vector<std::string> argv, std::chrono::seconds limit = 120s) {
+    static int runs = 0;
+    const std::string log = "/tmp/run-" + std::to_string(++runs) + ".log";
+    const pid_t pid = spawn(std::move(argv), log, program_env());
+    if (pid < 0) {
+        return {-1, "fork failed"};
+    }
+    bool running = false;
+    Ran ran;
+    ran.status = wait_exit(pid, std::chrono::steady_clock::now() + limit, &running);
+    if (running) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+    }
+    ran.out = slurp(log);
+    return ran;
+}
+
+// drivebusd as its unit runs it: started, and ready when it says READY=1 on NOTIFY_SOCKET.
+class Daemon {
+public:
+    explicit Daemon(const std::string& config) {
+        ::mkdir("/run", 0755);
+        notify_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+        sockaddr_un addr{};
+        addr.sun_family = AF_UNIX;
+        std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", kNotify);
+        ::unlink(kNotify);
+        if (::bind(notify_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+            std::printf("bind %s: %s\n", kNotify, std::strerror(errno));
+        }
+        pid_ = spawn({"/usr/sbin/drivebusd", "--config", config}, kLog,
+                     program_env({std::string("NOTIFY_SOCKET=") + kNotify}));
+    }
+    Daemon(const Daemon&) = delete;
+    Daemon& operator=(const Daemon&) = delete;
+    ~Daemon() {
+        if (pid_ > 0 && exit_code_ == kRunning) {
+            ::kill(pid_, SIGKILL);
+            ::waitpid(pid_, nullptr, 0);
+        }
+        ::close(notify_);
+    }
+
+    // True once READY=1 came; false if drivebusd exited (exit_code()) or the deadline passed.
+    bool ready(std::chrono::seconds limit) {
+        const auto deadline = std::chrono::steady_clock::now() + limit;
+        while (std::chrono::steady_clock::now() < deadline) {
+            pollfd p{notify_, POLLIN, 0};
+            if (::poll(&p, 1, 50) == 1) {
+                std::array<char, 512> message{};
+                const auto n = ::recv(notify_, message.data(), message.size() - 1, 0);
+                if (n > 0 && std::string_view(message.data(), static_cast<std::size_t>(n)).contains("READY=1")) {
+                    return true;
+                }
+            }
+            int status = 0;
+            if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+                exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+                return false;
+            }
+        }
+        return false;
+    }
+    // SIGTERM, then its exit code (-1 if it did not exit within the limit).
+    int stop(std::chrono::seconds limit = 60s) {
+        if (exit_code_ != kRunning) {
+            return exit_code_;
+        }
+        ::kill(pid_, SIGTERM);
+        exit_code_ = wait_exit(pid_, std::chrono::steady_clock::now() + limit);
+        return exit_code_;
+    }
+    // Waits for drivebusd to exit on its own.
+    int exit_code(std::chrono::seconds limit) {
+        if (exit_code_ == kRunning) {
+            exit_code_ = wait_exit(pid_, std::chrono::steady_clock::now() + limit);
+        }
+        return exit_code_;
+    }
+    static std::string log() { return slurp(kLog); }
+
+private:
+    static constexpr const char* kNotify = "/run/drivebusd-notify";
+    static constexpr const char* kLog = "/tmp/drivebusd.log";
+    static constexpr int kRunning = -2;
+    int notify_ = -1;
+    pid_t pid_ = -1;
+    int exit_code_ = kRunning;
+};
+
+// drivebusd's configuration for the line: the pump (ATV21) and the fan (ATV58), kernel
+// direction; `extra` goes into [[bus]].
+std::string write_config(const std::string& path, const std::string& extra) {
+    std::ofstream out(path);
+    out << "[realtime]\n"
+           "mode = \"off\"  # one emulated CPU: nothing to gain, and a FIFO thread could starve the init\n"
+           "lock_memory = false\n"
+           "\n[[bus]]\nname = \"line\"\ndevice = \""
+        << board.line
+        << "\"\nbaud = 19200\nparity = \"none\"\ndirection = \"kernel\"\n"
+           "response_timeout = \"1s\"  # TCG and a pty hop\n"
+        << extra << "\n  [[bus.drive]]\n  name = \"pump\"\n  address = " << int{board.drive}
+        << "\n  profile = \"atv21\"\n  [[bus.drive]]\n  name = \"fan\"\n  address = " << int{board.fan}
+        << "\n  profile = \"atv58\"\n";
+    return path;
+}
+
+// The raw value in `drivebusctl --json read`'s output, or -1.
+long raw_of(const std::string& json) {
+    std::smatch m;
+    if (std::regex_search(json, m, std::regex(R"re("raw"\s*:\s*([0-9]+))re"))) {
+        return std::stol(m[1]);
+    }
+    return -1;
+}
+
+bool packages_in_guest() {
+    return board.packages && ::access("/usr/sbin/drivebusd", X_OK) == 0 && ::access("/usr/bin/drivebusctl", X_OK) == 0;
+}
+
+TEST(Packaged, ProgramsRunFromThePackages) {
+    if (!board.packages) {
+        GTEST_SKIP() << "the host put no packages in this initramfs (tests/board/run --packages)";
+    }
+    ASSERT_TRUE(packages_in_guest()) << "no /usr/sbin/drivebusd or /usr/bin/drivebusctl";
+    const auto version = run({"/usr/sbin/drivebusd", "--version"});
+    std::printf("%s", version.out.c_str());
+    EXPECT_EQ(version.status, 0) << version.out;
+    const auto config = write_config("/tmp/check.toml", "");
+    const auto check = run({"/usr/sbin/drivebusd", "--check-config", "--config", config});
+    EXPECT_EQ(check.status, 0) << check.out;
+}
+
+// drivebusd on the PL011 with direction = "kernel", and drivebusctl, a libdrivebus client,
+// through drivebusd's embedded RouDi: reads of both drives get the simulator's values, a
+// write reaches the pump (read back from the line), and drivebusd stops cleanly.
+TEST(Packaged, DrivebusdAndDrivebusctlOnThePl011) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    Daemon daemon(write_config("/tmp/drivebusd.toml", ""));
+    ASSERT_TRUE(daemon.ready(180s)) << "drivebusd not ready (exit " << daemon.exit_code(0s) << "):\n" << Daemon::log();
+    const auto pump =
+        run({"/usr/bin/drivebusctl", "--json", "--timeout", "10s", "read", "pump", std::to_string(board.reg)});
+    EXPECT_EQ(pump.status, 0) << pump.out;
+    EXPECT_EQ(raw_of(pump.out), board.value) << pump.out;
+    const auto fan = run({"/usr/bin/drivebusctl", "--json", "--timeout", "10s", "read", "fan", board.fan_register});
+    EXPECT_EQ(fan.status, 0) << fan.out;
+    EXPECT_EQ(raw_of(fan.out), board.fan_value) << fan.out;
+    const auto written = run({"/usr/bin/drivebusctl", "--timeout", "10s", "write", "pump", std::to_string(board.reg),
+                              std::to_string(board.write_value)});
+    EXPECT_EQ(written.status, 0) << written.out;
+    const auto again =
+        run({"/usr/bin/drivebusctl", "--json", "--timeout", "10s", "read", "pump", std::to_string(board.reg)});
+    EXPECT_EQ(raw_of(again.out), board.write_value) << again.out;
+    EXPECT_EQ(daemon.stop(), 0) << Daemon::log();
+    std::printf("drivebusd said:\n%s", Daemon::log().c_str());
+}
+
+// What the PL011 cannot keep (RTS high both during and after sending: the driver clears
+// RTS_AFTER_SEND): drivebusd refuses at start, in one line, with exit 78 (EX_CONFIG); with a
+// kernel_fallback too, which is for a driver without RS485 support, not one that changed
+// what was asked.
+TEST(Packaged, DrivebusdRefusesWhatTheDriverChanges) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    for (const std::string fallback : {"", "kernel_fallback = \"rts\"\n"}) {
+        SCOPED_TRACE(fallback.empty() ? "no kernel_fallback" : "kernel_fallback = \"rts\"");
+        Daemon daemon(write_config("/tmp/refused.toml", "rts_on_send = true\nrts_after_send = true\n" + fallback));
+        EXPECT_FALSE(daemon.ready(180s)) << Daemon::log();
+        EXPECT_EQ(daemon.exit_code(60s), 78) << Daemon::log();
+        const auto log = Daemon::log();
+        std::printf("drivebusd said:\n%s", log.c_str());
+        std::size_t errors = 0;
+        for (std::size_t at = log.find("error:"); at != std::string::npos; at = log.find("error:", at + 1)) {
+            ++errors;
+        }
+        EXPECT_EQ(errors, 1U) << log;
+        EXPECT_NE(log.find("the driver changed the RS485 settings: rts_after_send 1 -> 0; ask for what the "
+                           "driver keeps"),
+                  std::string::npos)
+            << log;
+    }
 }
 
 // PID 1's duties before the tests: the file systems they need, and the console as stdio.
@@ -273,6 +549,8 @@ void become_init() {
     ::mount("sysfs", "/sys", "sysfs", 0, nullptr);
     ::mount("devtmpfs", "/dev", "devtmpfs", 0, nullptr);
     ::mount("tmpfs", "/tmp", "tmpfs", 0, nullptr);
+    ::mkdir("/dev/shm", 01777);
+    ::mount("tmpfs", "/dev/shm", "tmpfs", 0, nullptr);  // iceoryx's shared memory
     const int console = ::open("/dev/hvc0", O_RDWR | O_NOCTTY);
     if (console >= 0) {
         ::dup2(console, 1);
@@ -299,6 +577,12 @@ int main(int argc, char** argv) {
     board.reg = word(conf, "register");
     board.value = word(conf, "value");
     board.write_value = word(conf, "write_value");
+    board.packages = conf.contains("fan");
+    if (board.packages) {
+        board.fan = static_cast<rtu::SlaveAddress>(word(conf, "fan"));
+        board.fan_register = conf.at("fan_register");
+        board.fan_value = word(conf, "fan_value");
+    }
     ::testing::InitGoogleTest(&argc, argv);
     GTEST_FLAG_SET(color, "no");  // the console is a tty; the host reads plain lines
     const int failed = RUN_ALL_TESTS();
