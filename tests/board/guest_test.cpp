@@ -16,6 +16,7 @@
 // packages), with drivebusd's embedded RouDi.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <linux/gpio.h>
 #include <linux/serial.h>
 #include <poll.h>
 #include <signal.h>
@@ -173,9 +174,19 @@ TEST(Pl011, OpensWithTheLinesSettings) {
     EXPECT_NE(tio.c_iflag & INPCK, 0U);
     EXPECT_NE(tio.c_iflag & PARMRK, 0U);
     EXPECT_EQ(tio.c_lflag & ICANON, 0U);
-    for (const auto& line : port->tuning()) {
+    // The low-latency tuning drivebusd logs at start, as the PL011 takes it: the flag is set,
+    // and the FTDI timer and the 8250 FIFO trigger are said not to apply.
+    const auto& tuning = port->tuning();
+    for (const auto& line : tuning) {
         std::printf("tuning: %s\n", line.c_str());
     }
+    ASSERT_EQ(tuning.size(), 3U);
+    EXPECT_TRUE(tuning[0] == "ASYNC_LOW_LATENCY set" || tuning[0] == "ASYNC_LOW_LATENCY already set") << tuning[0];
+    EXPECT_EQ(tuning[1], "latency_timer: not an FTDI adapter");
+    EXPECT_EQ(tuning[2], "rx_trig_bytes: not an 8250 UART with a FIFO");
+    serial_struct info{};
+    ASSERT_EQ(::ioctl(port->fd(), TIOCGSERIAL, &info), 0) << std::strerror(errno);
+    EXPECT_NE(info.flags & static_cast<int>(ASYNC_LOW_LATENCY), 0) << "the driver does not keep ASYNC_LOW_LATENCY";
     // A second opener is refused: drivebusd holds the line alone.
     auto second = serial::Port::open(line_options());
     EXPECT_FALSE(second);
@@ -389,7 +400,7 @@ public:
     Daemon(const Daemon&) = delete;
     Daemon& operator=(const Daemon&) = delete;
     ~Daemon() {
-        if (pid_ > 0 && exit_code_ == kRunning) {
+        if (pid_ > 0 && !reaped_) {  // never left running into the next case
             ::kill(pid_, SIGKILL);
             ::waitpid(pid_, nullptr, 0);
         }
@@ -410,6 +421,7 @@ public:
             }
             int status = 0;
             if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+                reaped_ = true;
                 exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
                 return false;
             }
@@ -418,17 +430,21 @@ public:
     }
     // SIGTERM, then its exit code (-1 if it did not exit within the limit).
     int stop(std::chrono::seconds limit = 60s) {
-        if (exit_code_ != kRunning) {
-            return exit_code_;
+        if (!reaped_) {
+            ::kill(pid_, SIGTERM);
         }
-        ::kill(pid_, SIGTERM);
-        exit_code_ = wait_exit(pid_, std::chrono::steady_clock::now() + limit);
-        return exit_code_;
+        return exit_code(limit);
     }
-    // Waits for drivebusd to exit on its own.
+    // Waits for drivebusd to exit on its own: its exit code, or -1 (killed, or still running).
     int exit_code(std::chrono::seconds limit) {
-        if (exit_code_ == kRunning) {
-            exit_code_ = wait_exit(pid_, std::chrono::steady_clock::now() + limit);
+        if (!reaped_) {
+            bool running = false;
+            const int code = wait_exit(pid_, std::chrono::steady_clock::now() + limit, &running);
+            if (running) {
+                return -1;
+            }
+            reaped_ = true;
+            exit_code_ = code;
         }
         return exit_code_;
     }
@@ -437,23 +453,23 @@ public:
 private:
     static constexpr const char* kNotify = "/run/drivebusd-notify";
     static constexpr const char* kLog = "/tmp/drivebusd.log";
-    static constexpr int kRunning = -2;
     int notify_ = -1;
     pid_t pid_ = -1;
-    int exit_code_ = kRunning;
+    bool reaped_ = false;
+    int exit_code_ = -1;
 };
 
 // drivebusd's configuration for the line: the pump (ATV21) and the fan (ATV58), kernel
-// direction; `extra` goes into [[bus]].
-std::string write_config(const std::string& path, const std::string& extra) {
+// direction unless `direction` says another; `extra` goes into [[bus]].
+std::string write_config(const std::string& path, const std::string& extra,
+                         const std::string& direction = "direction = \"kernel\"\n") {
     std::ofstream out(path);
     out << "[realtime]\n"
            "mode = \"off\"  # one emulated CPU: nothing to gain, and a FIFO thread could starve the init\n"
            "lock_memory = false\n"
            "\n[[bus]]\nname = \"line\"\ndevice = \""
-        << board.line
-        << "\"\nbaud = 19200\nparity = \"none\"\ndirection = \"kernel\"\n"
-           "response_timeout = \"1s\"  # TCG and a pty hop\n"
+        << board.line << "\"\nbaud = 19200\nparity = \"none\"\n"
+        << direction << "response_timeout = \"1s\"  # TCG and a pty hop\n"
         << extra << "\n  [[bus.drive]]\n  name = \"pump\"\n  address = " << int{board.drive}
         << "\n  profile = \"atv21\"\n  [[bus.drive]]\n  name = \"fan\"\n  address = " << int{board.fan}
         << "\n  profile = \"atv58\"\n";
@@ -467,6 +483,14 @@ long raw_of(const std::string& json) {
         return std::stol(m[1]);
     }
     return -1;
+}
+
+std::size_t count_of(const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) {
+        ++n;
+    }
+    return n;
 }
 
 bool packages_in_guest() {
@@ -508,6 +532,10 @@ TEST(Packaged, DrivebusdAndDrivebusctlOnThePl011) {
     const auto again =
         run({"/usr/bin/drivebusctl", "--json", "--timeout", "10s", "read", "pump", std::to_string(board.reg)});
     EXPECT_EQ(raw_of(again.out), board.write_value) << again.out;
+    // The drive as it was found, for the cases after this one.
+    const auto restored = run({"/usr/bin/drivebusctl", "--timeout", "10s", "write", "pump", std::to_string(board.reg),
+                               std::to_string(board.value)});
+    EXPECT_EQ(restored.status, 0) << restored.out;
     EXPECT_EQ(daemon.stop(), 0) << Daemon::log();
     std::printf("drivebusd said:\n%s", Daemon::log().c_str());
 }
@@ -527,16 +555,325 @@ TEST(Packaged, DrivebusdRefusesWhatTheDriverChanges) {
         EXPECT_EQ(daemon.exit_code(60s), 78) << Daemon::log();
         const auto log = Daemon::log();
         std::printf("drivebusd said:\n%s", log.c_str());
-        std::size_t errors = 0;
-        for (std::size_t at = log.find("error:"); at != std::string::npos; at = log.find("error:", at + 1)) {
-            ++errors;
-        }
-        EXPECT_EQ(errors, 1U) << log;
+        EXPECT_EQ(count_of(log, "error:"), 1U) << log;
         EXPECT_NE(log.find("the driver changed the RS485 settings: rts_after_send 1 -> 0; ask for what the "
                            "driver keeps"),
                   std::string::npos)
             << log;
     }
+}
+
+// --- direction = "gpio" on the PL061 ---------------------------------------------------------
+
+// The virt board's PL061 (gpiochip0, 8 lines; line 3 is the power button's). drivebusd's
+// driver enable goes on a free line.
+constexpr const char* kGpioChip = "/dev/gpiochip0";
+constexpr unsigned kGpioLine = 4;
+
+// The kernel's view of a line (GPIO_V2_GET_LINEINFO_IOCTL), read without libgpiod.
+std::optional<gpio_v2_line_info> gpio_line_info(unsigned offset) {
+    const int chip = ::open(kGpioChip, O_RDWR | O_CLOEXEC);
+    if (chip < 0) {
+        return std::nullopt;
+    }
+    gpio_v2_line_info info{};
+    info.offset = offset;
+    const int r = ::ioctl(chip, GPIO_V2_GET_LINEINFO_IOCTL, &info);
+    ::close(chip);
+    return r == 0 ? std::optional(info) : std::nullopt;
+}
+
+std::string gpio_chip_label() {
+    const int chip = ::open(kGpioChip, O_RDWR | O_CLOEXEC);
+    gpiochip_info info{};
+    const int r = chip < 0 ? -1 : ::ioctl(chip, GPIO_GET_CHIPINFO_IOCTL, &info);
+    if (chip >= 0) {
+        ::close(chip);
+    }
+    return r == 0 ? std::string(info.label) : std::string();
+}
+
+// The line held as an output by `consumer`, as another program would hold it, until closed.
+int hold_gpio_line(unsigned offset, const char* consumer) {
+    const int chip = ::open(kGpioChip, O_RDWR | O_CLOEXEC);
+    if (chip < 0) {
+        return -1;
+    }
+    gpio_v2_line_request request{};
+    request.offsets[0] = offset;
+    request.num_lines = 1;
+    request.config.flags = GPIO_V2_LINE_FLAG_OUTPUT;
+    std::snprintf(request.consumer, sizeof request.consumer, "%s", consumer);
+    const int r = ::ioctl(chip, GPIO_V2_GET_LINE_IOCTL, &request);
+    ::close(chip);
+    return r == 0 ? request.fd : -1;
+}
+
+// The kernel's own record of what drivebusd did, from tracefs: every value set on a GPIO line
+// (gpio:gpio_value) and, from the same threads, each write() and TIOCSERGETLSR ioctl.
+class KernelTrace {
+public:
+    KernelTrace() {
+        ::mkdir("/sys/kernel/tracing", 0755);
+        if (::mount("nodev", "/sys/kernel/tracing", "tracefs", 0, nullptr) != 0 && errno != EBUSY) {
+            error_ = std::string("mount tracefs: ") + std::strerror(errno);
+            return;
+        }
+        const bool ok = put("tracing_on", "0") && put("trace", "") && put("buffer_size_kb", "4096") &&
+                        put("events/syscalls/sys_enter_ioctl/filter", "cmd == 0x5459") &&  // TIOCSERGETLSR
+                        put("events/syscalls/sys_enter_write/filter", "count <= 256") &&
+                        put("events/gpio/gpio_value/enable", "1") &&
+                        put("events/syscalls/sys_enter_write/enable", "1") &&
+                        put("events/syscalls/sys_enter_ioctl/enable", "1") && put("tracing_on", "1");
+        if (!ok && error_.empty()) {
+            error_ = "tracefs refused a setting";
+        }
+    }
+    KernelTrace(const KernelTrace&) = delete;
+    KernelTrace& operator=(const KernelTrace&) = delete;
+    ~KernelTrace() {
+        put("tracing_on", "0");
+        put("events/enable", "0");
+    }
+    [[nodiscard]] const std::string& error() const { return error_; }
+    // Stops recording; what was recorded.
+    std::string take() {
+        put("tracing_on", "0");
+        return slurp("/sys/kernel/tracing/trace");
+    }
+
+private:
+    bool put(const std::string& file, const std::string& value) {
+        const auto path = "/sys/kernel/tracing/" + file;
+        const int fd = ::open(path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+        if (fd < 0) {
+            error_ = path + ": " + std::strerror(errno);
+            return false;
+        }
+        const auto n = ::write(fd, value.data(), value.size());
+        ::close(fd);
+        if (!value.empty() && n != static_cast<ssize_t>(value.size())) {
+            error_ = path + ": " + std::strerror(errno);
+            return false;
+        }
+        return true;
+    }
+    std::string error_;
+};
+
+// One event of the trace, from the thread that sent.
+struct TraceEvent {
+    enum Kind { Set, Write, Lsr } kind;
+    int fd = -1;     // Write, Lsr
+    int value = -1;  // Set: the level on the pin (active-low inverted)
+};
+
+// What the trace says of drivebusd's driver enable, checked transmission by transmission.
+struct EnableRecord {
+    std::size_t transmissions = 0;   // runs of writes to the line, each up to its TIOCSERGETLSR
+    std::size_t windows = 0;         // enabled, written, drained, released: as drivebusd should
+    std::size_t writes_outside = 0;  // bytes written to the line with the driver not enabled
+    std::size_t released_early = 0;  // released after a write with no TIOCSERGETLSR between
+    int last_level = -1;             // the pin's last level from the sending thread
+    std::string problem;             // the first thing out of order, for the failure's message
+};
+
+// `active` is the pin level that enables the driver (0 when active low).
+EnableRecord check_enable(const std::string& trace, int active) {
+    // "<comm>-<tid> [cpu] flags time: gpio_value: <gpio> set <v>", "sys_write(fd: 0x5, ...)",
+    // "sys_ioctl(fd: 0x5, cmd: 0x5459, ...)"; the numbers in syscall arguments are hex.
+    const std::regex event(
+        R"(-(\d+)\s+\[\d+\].*: (?:gpio_value: \d+ set (\d)|sys_(write|ioctl)\(fd: (?:0x)?([0-9a-f]+)))");
+    std::map<int, std::vector<TraceEvent>> by_thread;
+    std::istringstream lines(trace);
+    std::string text;
+    int port_fd = -1;
+    int sender = -1;
+    while (std::getline(lines, text)) {
+        std::smatch m;
+        if (!std::regex_search(text, m, event)) {
+            continue;
+        }
+        const int tid = std::stoi(m[1]);
+        if (m[2].matched) {
+            by_thread[tid].push_back({TraceEvent::Set, -1, std::stoi(m[2])});
+        } else {
+            const int fd = std::stoi(m[4], nullptr, 16);
+            const bool lsr = m[3] == "ioctl";
+            by_thread[tid].push_back({lsr ? TraceEvent::Lsr : TraceEvent::Write, fd, -1});
+            if (lsr && sender < 0) {
+                sender = tid;  // the bus thread: the one that asks whether the transmitter emptied
+                port_fd = fd;
+            }
+        }
+    }
+    EnableRecord record;
+    if (sender < 0) {
+        record.problem = "no TIOCSERGETLSR in the trace";
+        return record;
+    }
+    bool enabled = false;
+    bool written = false;  // in this window, a write not yet followed by TIOCSERGETLSR
+    bool drained = false;
+    for (const auto& e : by_thread[sender]) {
+        if (e.kind == TraceEvent::Set) {
+            record.last_level = e.value;
+            const bool on = e.value == active;
+            if (enabled && on && drained && record.problem.empty()) {
+                record.problem = "enabled for the next request without a release after the last";
+            }
+            if (enabled && !on) {
+                if (written) {
+                    ++record.released_early;
+                    if (record.problem.empty()) {
+                        record.problem = "released after a write and before TIOCSERGETLSR";
+                    }
+                } else if (drained) {
+                    ++record.windows;
+                }
+            }
+            enabled = on;
+            written = drained = false;
+        } else if (e.fd == port_fd && e.kind == TraceEvent::Write) {
+            if (!enabled) {
+                ++record.writes_outside;
+                if (record.problem.empty()) {
+                    record.problem = "a write to the line with the driver not enabled";
+                }
+            }
+            if (!written && !drained) {
+                ++record.transmissions;
+            }
+            written = true;
+        } else if (e.fd == port_fd && e.kind == TraceEvent::Lsr && written) {
+            written = false;
+            drained = true;
+        }
+    }
+    return record;
+}
+
+std::string gpio_direction(const std::string& chip, unsigned line, bool active_low) {
+    return "direction = \"gpio\"\ngpio_chip = \"" + chip + "\"\ngpio_line = " + std::to_string(line) +
+           "\ngpio_active_low = " + (active_low ? "true" : "false") + "\n";
+}
+
+// drivebusd with its driver enable on the PL061: the line requested as drivebusd's output with
+// the polarity asked, enabled around each request on the kernel's record (set, written, the
+// transmitter seen empty, released), reads and a write through it, released at stop.
+void gpio_case(const std::string& chip, bool active_low) {
+    const auto before = gpio_line_info(kGpioLine);
+    ASSERT_TRUE(before) << kGpioChip << " line " << kGpioLine << ": " << std::strerror(errno);
+    ASSERT_EQ(before->flags & GPIO_V2_LINE_FLAG_USED, 0U) << "line " << kGpioLine << " is in use before the test";
+    KernelTrace trace;
+    ASSERT_EQ(trace.error(), "");
+    {
+        Daemon daemon(write_config("/tmp/gpio.toml", "", gpio_direction(chip, kGpioLine, active_low)));
+        ASSERT_TRUE(daemon.ready(180s)) << "drivebusd not ready (exit " << daemon.exit_code(0s) << "):\n"
+                                        << Daemon::log();
+        const auto pump =
+            run({"/usr/bin/drivebusctl", "--json", "--timeout", "10s", "read", "pump", std::to_string(board.reg)});
+        EXPECT_EQ(raw_of(pump.out), board.value) << pump.out;
+        const auto fan = run({"/usr/bin/drivebusctl", "--json", "--timeout", "10s", "read", "fan", board.fan_register});
+        EXPECT_EQ(raw_of(fan.out), board.fan_value) << fan.out;
+        const auto held = gpio_line_info(kGpioLine);
+        ASSERT_TRUE(held);
+        std::printf("line %u while drivebusd runs: flags 0x%llx, consumer \"%s\"\n", kGpioLine,
+                    static_cast<unsigned long long>(held->flags), held->consumer);
+        EXPECT_NE(held->flags & GPIO_V2_LINE_FLAG_USED, 0U);
+        EXPECT_NE(held->flags & GPIO_V2_LINE_FLAG_OUTPUT, 0U);
+        EXPECT_EQ((held->flags & GPIO_V2_LINE_FLAG_ACTIVE_LOW) != 0, active_low);
+        EXPECT_STREQ(held->consumer, "drivebusd");
+        EXPECT_EQ(daemon.stop(), 0) << Daemon::log();
+    }
+    const auto after = gpio_line_info(kGpioLine);
+    ASSERT_TRUE(after);
+    EXPECT_EQ(after->flags & GPIO_V2_LINE_FLAG_USED, 0U) << "drivebusd did not release the line";
+    const int active = active_low ? 0 : 1;
+    const auto record = check_enable(trace.take(), active);
+    std::printf(
+        "kernel trace: %zu transmissions, %zu of them enabled, written, drained and released; %zu writes "
+        "with the driver off; %zu released before the drain; last level %d\n",
+        record.transmissions, record.windows, record.writes_outside, record.released_early, record.last_level);
+    EXPECT_GE(record.transmissions, 2U) << record.problem;
+    EXPECT_EQ(record.windows, record.transmissions) << record.problem;
+    EXPECT_EQ(record.writes_outside, 0U) << record.problem;
+    EXPECT_EQ(record.released_early, 0U) << record.problem;
+    EXPECT_EQ(record.last_level, 1 - active) << "the driver enable was left on";
+}
+
+TEST(Packaged, GpioDirectionOnThePl061) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    gpio_case("gpiochip0", false);
+}
+
+// The chip by its label, the enable active low: the pin's levels are the other way round.
+TEST(Packaged, GpioActiveLowByTheChipsLabel) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    const auto label = gpio_chip_label();
+    ASSERT_FALSE(label.empty()) << "GPIO_GET_CHIPINFO_IOCTL: " << std::strerror(errno);
+    std::printf("gpiochip0's label: %s\n", label.c_str());
+    gpio_case(label, true);
+}
+
+// A chip or a line that does not exist cannot appear later: one line, exit 78.
+TEST(Packaged, GpioChipOrLineThatDoesNotExistIsRefused) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {gpio_direction("gpiochip9", kGpioLine, false),
+         "gpio gpiochip9 line 4: no such GPIO chip (there are gpiochip0)"},
+        {gpio_direction("gpiochip0", 99, false), "gpio gpiochip0 line 99: no such line (gpiochip0 \""},
+    };
+    for (const auto& [direction, expected] : cases) {
+        SCOPED_TRACE(direction);
+        Daemon daemon(write_config("/tmp/gpio-refused.toml", "", direction));
+        EXPECT_FALSE(daemon.ready(180s)) << Daemon::log();
+        EXPECT_EQ(daemon.exit_code(60s), 78) << Daemon::log();
+        const auto log = Daemon::log();
+        std::printf("drivebusd said:\n%s", log.c_str());
+        EXPECT_EQ(count_of(log, "error:"), 1U) << log;
+        EXPECT_NE(log.find(expected), std::string::npos) << log;
+    }
+}
+
+// A line another program holds may be released: drivebusd says who holds it, keeps trying,
+// and takes it once it is free.
+TEST(Packaged, AGpioLineInUseIsWaitedFor) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    int holder = hold_gpio_line(kGpioLine, "holder");
+    ASSERT_GE(holder, 0) << "GPIO_V2_GET_LINE_IOCTL: " << std::strerror(errno);
+    Daemon daemon(write_config("/tmp/gpio-busy.toml", "", gpio_direction("gpiochip0", kGpioLine, false)));
+    ASSERT_TRUE(daemon.ready(180s)) << "drivebusd not ready (exit " << daemon.exit_code(0s) << "):\n" << Daemon::log();
+    const auto busy = "gpio gpiochip0 line 4: busy (used by \"holder\")";
+    auto deadline = std::chrono::steady_clock::now() + 120s;
+    while (!Daemon::log().contains(busy) && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(50ms);
+    }
+    ASSERT_TRUE(Daemon::log().contains(busy)) << Daemon::log();
+    const auto refused = run({"/usr/bin/drivebusctl", "--timeout", "2s", "read", "pump", std::to_string(board.reg)});
+    EXPECT_NE(refused.status, 0) << "a read with the bus down:\n" << refused.out;
+    std::printf("a read with the line held: exit %d\n%s", refused.status, refused.out.c_str());
+    ::close(holder);
+    // drivebusd tries again at most 5 s apart.
+    Ran read;
+    deadline = std::chrono::steady_clock::now() + 120s;
+    do {
+        read = run({"/usr/bin/drivebusctl", "--json", "--timeout", "5s", "read", "pump", std::to_string(board.reg)});
+    } while (read.status != 0 && std::chrono::steady_clock::now() < deadline);
+    EXPECT_EQ(raw_of(read.out), board.value) << read.out << Daemon::log();
+    const auto info = gpio_line_info(kGpioLine);
+    ASSERT_TRUE(info);
+    EXPECT_STREQ(info->consumer, "drivebusd");
+    EXPECT_EQ(daemon.stop(), 0) << Daemon::log();
+    std::printf("drivebusd said:\n%s", Daemon::log().c_str());
 }
 
 // PID 1's duties before the tests: the file systems they need, and the console as stdio.
