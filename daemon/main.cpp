@@ -2,9 +2,11 @@
 // drivebusd: owns the RS485 lines, is the Modbus RTU master for the drives on them.
 //
 //   drivebusd --config FILE [--check-config] [--profile-dir DIR] [--verbose]
+//   drivebusd --config FILE --check-line [--bus NAME]     (drivebusctl line-check)
 //
-// Exit codes: 0 clean stop (or a valid config with --check-config), 78 bad configuration
-// (EX_CONFIG), 2 bad command line, 1 a failure at start-up (real time required and refused).
+// Exit codes: 0 clean stop (or a valid config with --check-config, a line that works with
+// --check-line), 78 bad configuration (EX_CONFIG), 2 bad command line, 1 a failure at
+// start-up (real time required and refused) or a line check that failed.
 #include <signal.h>
 #include <sys/signalfd.h>
 #include <systemd/sd-daemon.h>
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include "bus/bus_loop.hpp"
+#include "bus/line_check.hpp"
 #include "bus/line_opener.hpp"
 #include "config/config.hpp"
 #include "config/reload.hpp"
@@ -72,9 +75,8 @@ std::string fmt_mib(const std::string& before, std::size_t kib) {
     return before + std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " MiB";
 }
 
-// Warnings a configuration still leaves, and the permanent misconfigurations of its lines (a
-// GPIO chip that is not there, RS485 the driver lacks): the first of those is the error.
-std::expected<void, std::string> check_and_warn(const config::Config& c) {
+// Warnings a configuration still leaves.
+void warn(const config::Config& c) {
     for (const auto& line : config::start_up_warnings(c)) {
         log::warning(line);
     }
@@ -86,6 +88,12 @@ std::expected<void, std::string> check_and_warn(const config::Config& c) {
             log::warning(line);
         }
     }
+}
+
+// The warnings, and the permanent misconfigurations of the lines (a GPIO chip that is not
+// there, RS485 the driver lacks): the first of those is the error.
+std::expected<void, std::string> check_and_warn(const config::Config& c) {
+    warn(c);
     for (const auto& bus : c.buses) {
         if (auto usable = bus::check_line(bus); !usable) {
             return std::unexpected(usable.error());
@@ -100,11 +108,17 @@ int run_main(int argc, char** argv) {
     std::string config_path;
     std::string profile_dir;
     bool check_only = false;
+    bool check_line = false;
+    std::string line_bus;
     bool verbose = false;
     CLI::App app{"drivebusd: Modbus RTU master for drives on RS485 lines"};
     app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
     app.add_option("--config", config_path, "configuration file (TOML)")->required();
     app.add_flag("--check-config", check_only, "validate the configuration and exit (0 valid, 78 not)");
+    auto* line_flag = app.add_flag("--check-line", check_line,
+                                   "check each bus's line and read each drive once, with drivebusd stopped (0 all "
+                                   "answered, 1 not, 78 what the configuration asks cannot be had)");
+    app.add_option("--bus", line_bus, "with --check-line: only this bus")->needs(line_flag);
     app.add_option("--profile-dir", profile_dir, "directory with the drive profiles (TYPE.toml)");
     app.add_flag("--verbose,-v", verbose, "log debug messages");
     try {
@@ -117,7 +131,7 @@ int run_main(int argc, char** argv) {
         std::cerr << "drivebusd: " << e.what() << " (see --help)\n";
         return kExitUsage;
     }
-    log::init("drivebusd", verbose ? log::Level::Debug : log::Level::Info);
+    log::init("drivebusd", verbose ? log::Level::Debug : (check_line ? log::Level::Warning : log::Level::Info));
 
     config::LoadOptions options;
     if (!profile_dir.empty()) {
@@ -134,6 +148,10 @@ int run_main(int argc, char** argv) {
     if (!config) {
         log::error(config.error().message);
         return kExitConfig;
+    }
+    if (check_line) {
+        warn(*config);
+        return bus::check_lines(*config, bus::LineCheckOptions{.bus = line_bus}, std::cout);
     }
     if (auto checked = check_and_warn(*config); !checked) {
         log::error(checked.error());

@@ -6,12 +6,18 @@
 //     identify DRIVE | watch [--interval DURATION] | scan [--from A] [--to B] [--register R]
 //     udev-rule [DEVICE] [--name N] [--group G] [--by-path] [--start UNIT] [--properties FILE]...
 //               [--gpio-chip CHIP]... [--config FILE]      (needs no drivebusd)
+//     line-check [--config FILE]         (drivebusd --check-line, with drivebusd stopped)
 //
 // Exit status: 0 ok, 1 the drive failed the request, 2 usage, 3 rejected or unsupported,
 // 4 not permitted, 5 drivebusd or the bus unavailable, 6 queue full, 7 timed out and withdrawn
 // (never sent), 8 timed out after it was sent (outcome unknown).
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -43,6 +49,37 @@ bool duration(const ctl::Options& options, const std::string& name, const std::s
     }
     out = *parsed;
     return true;
+}
+
+// The line check is drivebusd's (drivebusd --check-line): its configuration reader, its port
+// and direction control and its bus thread, which a libdrivebus client does not link. This
+// runs it in place of drivebusctl; DRIVEBUSD names another drivebusd (a build tree's).
+int run_line_check(const ctl::Options& options, const std::string& config) {
+    if (options.json) {
+        return usage_error(options,
+                           "line-check: no --json output (its report is for people; its exit code for scripts)");
+    }
+    const char* named = std::getenv("DRIVEBUSD");
+    const std::string program = named != nullptr && *named != '\0' ? named : DRIVEBUSD_INSTALLED;
+    std::vector<std::string> args = {program, "--config", config, "--check-line"};
+    if (!options.bus.empty()) {
+        args.insert(args.end(), {"--bus", options.bus});
+    }
+    if (!options.profile_dir.empty()) {
+        args.insert(args.end(), {"--profile-dir", options.profile_dir});
+    }
+    std::vector<char*> argv;
+    for (auto& arg : args) {
+        argv.push_back(arg.data());
+    }
+    argv.push_back(nullptr);
+    std::fflush(stdout);
+    ::execv(program.c_str(), argv.data());
+    std::fprintf(stderr,
+                 "drivebusctl: line-check: cannot run %s: %s; the line check is drivebusd's (install the "
+                 "drivebusd package, or name it with DRIVEBUSD=PATH)\n",
+                 program.c_str(), std::strerror(errno));
+    return 5;  // drivebusd unavailable
 }
 
 }  // namespace
@@ -123,6 +160,13 @@ int main(int argc, char** argv) {
     udev_rule->add_option("--config", udev.config,
                           "also give the GPIO chip of each direction = \"gpio\" bus of this drivebusd.toml");
 
+    std::string line_config = "/etc/drivebus/drivebusd.toml";
+    auto* line_check = app.add_subcommand(
+        "line-check",
+        "with drivebusd stopped: open each bus's line as drivebusd does, show its RS485 or GPIO driver enable and "
+        "tuning, read each drive once (runs drivebusd --check-line)");
+    line_check->add_option("--config", line_config, "drivebusd's configuration (default /etc/drivebus/drivebusd.toml)");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -137,6 +181,9 @@ int main(int argc, char** argv) {
 
     if (udev_rule->parsed()) {
         return ctl::run_udev_rule(udev);
+    }
+    if (line_check->parsed()) {
+        return run_line_check(options, line_config);
     }
     int bad = 0;
     if (!duration(options, "--timeout", timeout, options.timeout, bad)) {

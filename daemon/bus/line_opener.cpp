@@ -87,13 +87,17 @@ std::expected<void, std::string> check_line(const config::BusConfig& bus) {
     if (kernel && error.no_rs485_support && bus.kernel_fallback) {
         return {};  // the bus thread falls back, as configured
     }
-    std::string hint;
-    if (kernel) {
-        hint = error.no_rs485_support ? "; set kernel_fallback = \"rts\" or \"none\", or another direction"
-                                      : "; ask for what the driver keeps (rts_on_send, rts_after_send, rx_during_tx, "
-                                        "delay_before_send_ms, delay_after_send_ms), or another direction";
+    return std::unexpected("bus " + bus.name + ": " + refusal(bus, error));
+}
+
+std::string refusal(const config::BusConfig& bus, const serial::DirectionError& error) {
+    if (bus.direction != config::DirectionMode::Kernel || !error.permanent) {
+        return error.message;
     }
-    return std::unexpected("bus " + bus.name + ": " + error.message + hint);
+    return error.message + (error.no_rs485_support
+                                ? "; set kernel_fallback = \"rts\" or \"none\", or another direction"
+                                : "; ask for what the driver keeps (rts_on_send, rts_after_send, rx_during_tx, "
+                                  "delay_before_send_ms, delay_after_send_ms), or another direction");
 }
 
 }  // namespace drivebus::bus

@@ -29,6 +29,9 @@ namespace drivebus::bus {
 // bus thread, which waits for it.
 [[nodiscard]] std::expected<void, std::string> check_line(const config::BusConfig& bus);
 
+// A direction control's error and, for a permanent refusal of "kernel", what to change.
+[[nodiscard]] std::string refusal(const config::BusConfig& bus, const serial::DirectionError& error);
+
 class LineOpener {
 public:
     struct Line {
