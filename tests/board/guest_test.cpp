@@ -876,6 +876,53 @@ TEST(Packaged, AGpioLineInUseIsWaitedFor) {
     std::printf("drivebusd said:\n%s", Daemon::log().c_str());
 }
 
+// --- drivebusctl line-check ------------------------------------------------------------------
+
+// The check a user runs on the board before commissioning, as the packages install it:
+// drivebusctl line-check runs /usr/sbin/drivebusd --check-line. Kernel direction with what the
+// PL011 keeps, the GPIO line, and a refusal of what it changes.
+TEST(Packaged, LineCheckOnThePl011AndThePl061) {
+    if (!packages_in_guest()) {
+        GTEST_SKIP() << "no packaged programs in this initramfs";
+    }
+    const auto kernel = run({"/usr/bin/drivebusctl", "line-check", "--config", write_config("/tmp/line.toml", "")});
+    std::printf("drivebusctl line-check (kernel):\n%s", kernel.out.c_str());
+    EXPECT_EQ(kernel.status, 0) << kernel.out;
+    EXPECT_NE(kernel.out.find("  transmitter empty (TIOCSERGETLSR): reported by the driver"), std::string::npos);
+    EXPECT_NE(kernel.out.find("  RS485 as asked, and kept by the driver: flags 0x3 (enabled, rts_on_send), delay "
+                              "before send 0 ms, after send 0 ms\n"),
+              std::string::npos)
+        << kernel.out;
+    EXPECT_NE(kernel.out.find("  tuning: rx_trig_bytes: not an 8250 UART with a FIFO\n"), std::string::npos)
+        << kernel.out;
+    EXPECT_NE(kernel.out.find("  drive pump (address 1, atv21): FD01 = "), std::string::npos) << kernel.out;
+    EXPECT_NE(kernel.out.find("  2 of 2 drives answered\nbus line: ok\n"), std::string::npos) << kernel.out;
+
+    const auto gpio = run({"/usr/bin/drivebusctl", "line-check", "--config",
+                           write_config("/tmp/line.toml", "", gpio_direction("gpiochip0", kGpioLine, false))});
+    std::printf("drivebusctl line-check (gpio):\n%s", gpio.out.c_str());
+    EXPECT_EQ(gpio.status, 0) << gpio.out;
+    EXPECT_NE(gpio.out.find("  driver enable: gpio gpiochip0 line 4, requested: an output of consumer drivebusd, "
+                            "active high, at its inactive level\n"),
+              std::string::npos)
+        << gpio.out;
+    EXPECT_NE(gpio.out.find("  2 of 2 drives answered\nbus line: ok\n"), std::string::npos) << gpio.out;
+    const auto released = gpio_line_info(kGpioLine);
+    ASSERT_TRUE(released);
+    EXPECT_EQ(released->flags & GPIO_V2_LINE_FLAG_USED, 0U) << "the line check did not release the line";
+
+    const auto refused = run({"/usr/bin/drivebusctl", "line-check", "--config",
+                              write_config("/tmp/line.toml", "rts_on_send = true\nrts_after_send = true\n")});
+    std::printf("drivebusctl line-check (refused):\n%s", refused.out.c_str());
+    EXPECT_EQ(refused.status, 78) << refused.out;
+    EXPECT_NE(refused.out.find("  RS485 as found: "), std::string::npos) << refused.out;
+    EXPECT_NE(refused.out.find("the driver changed the RS485 settings: rts_after_send 1 -> 0; ask for what the "
+                               "driver keeps"),
+              std::string::npos)
+        << refused.out;
+    EXPECT_EQ(refused.out.find("drive pump"), std::string::npos) << refused.out;
+}
+
 // PID 1's duties before the tests: the file systems they need, and the console as stdio.
 void become_init() {
     ::mkdir("/proc", 0555);
