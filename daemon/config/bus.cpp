@@ -6,7 +6,6 @@
 #include <limits>
 
 #include "drivebus/shm.hpp"
-#include "keys.hpp"
 #include "read.hpp"
 #include "serial/termios.hpp"
 

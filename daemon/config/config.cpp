@@ -13,7 +13,6 @@
 #include <system_error>
 
 #include "drivebus/shm.hpp"
-#include "keys.hpp"
 #include "read.hpp"
 
 namespace drivebus::config {
@@ -29,15 +28,6 @@ constexpr std::array<std::string_view, 3> kRouDiModes = {"auto", "embedded", "ex
 
 std::unexpected<ConfigError> fail(std::string message) {
     return std::unexpected(ConfigError{std::move(message)});
-}
-
-ConfigError syntax_error(std::string_view source, const toml::parse_error& e) {
-    std::string line = std::string(source) + ": line " + std::to_string(e.source().begin.line) + ", column " +
-                       std::to_string(e.source().begin.column) + ": ";
-    for (const char c : e.description()) {
-        line += (c == '\n' || c == '\r') ? ' ' : c;
-    }
-    return ConfigError{std::move(line)};
 }
 
 // One file's [[bus]] tables, read into `config` with that file's errors.
@@ -208,11 +198,11 @@ std::expected<Config, ConfigError> parse_config(std::span<const ConfigText> file
     // Every file is parsed before any is read, so that a syntax error anywhere is the error.
     std::vector<toml::table> roots(files.size());
     for (std::size_t i = 0; i < files.size(); ++i) {
-        try {
-            roots[i] = toml::parse(files[i].text, files[i].source);
-        } catch (const toml::parse_error& e) {
-            return std::unexpected(syntax_error(files[i].source, e));
+        auto root = settings::parse_toml(files[i].text, files[i].source);
+        if (!root) {
+            return std::unexpected(ConfigError{std::move(root.error())});
         }
+        roots[i] = std::move(*root);
     }
     // One Errors per file, so that a problem is named in the file where it is.
     std::vector<detail::Errors> errors;
@@ -244,7 +234,7 @@ std::expected<Config, ConfigError> parse_config(std::span<const ConfigText> file
     read_buses(sources, options, config);
     for (const auto& e : errors) {
         if (e.any()) {
-            return std::unexpected(ConfigError{e.error().message});
+            return std::unexpected(ConfigError{e.message()});
         }
     }
     return config;
@@ -261,7 +251,7 @@ fs::path fragment_directory(const fs::path& file) {
 }
 
 std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadOptions& options) {
-    auto text = profile_detail::read_small_file(file, kMaxFileSize, "a configuration");
+    auto text = settings::read_small_file(file, kMaxFileSize, "a configuration");
     if (!text) {
         return fail(text.error());
     }
@@ -281,7 +271,7 @@ std::expected<Config, ConfigError> load_config(const fs::path& file, const LoadO
         }
         std::ranges::sort(fragments);
         for (const auto& f : fragments) {
-            auto fragment = profile_detail::read_small_file(f, kMaxFileSize, "a configuration fragment");
+            auto fragment = settings::read_small_file(f, kMaxFileSize, "a configuration fragment");
             if (!fragment) {
                 return fail(fragment.error());
             }

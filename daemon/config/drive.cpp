@@ -5,7 +5,6 @@
 #include <set>
 
 #include "drivebus/shm.hpp"
-#include "keys.hpp"
 #include "master/comm_timeout.hpp"
 #include "read.hpp"
 

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <map>
 
-#include "keys.hpp"
 #include "read.hpp"
 
 namespace drivebus::config::detail {
@@ -27,7 +26,7 @@ std::optional<PolledRegister> resolve(Section& s, const Profile& profile, const 
         written = text->get();
         info = profile.find(written);
         if (info == nullptr) {
-            number = profile_detail::key_integer(written);
+            number = settings::key_integer(written);
             if (!number) {
                 s.fail(key + " " + in_quotes(written) + " is not a register of " + title_of(profile));
                 return std::nullopt;

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Readers of the configuration's tables, on top of the profile loader's strict TOML access
-// (profile/toml_reader.hpp): same one-line errors, same unknown-key check. Internal to daemon/config/.
+// Readers of the configuration's tables, on the settings library's key tables and strict TOML
+// access (settings/keys.hpp, settings/reader.hpp). Internal to daemon/config/.
 #pragma once
 
 #include <cstddef>
@@ -16,15 +16,35 @@
 
 #include "config/config.hpp"
 #include "config/reference.hpp"
-#include "profile/toml_reader.hpp"
+#include "settings/keys.hpp"
+#include "settings/reader.hpp"
 
 namespace drivebus::config::detail {
 
-using profile_detail::Errors;
-using profile_detail::hex4;
-using profile_detail::in_quotes;
-using profile_detail::Need;
-using profile_detail::Section;
+using settings::allow_only;
+using settings::checked_duration;
+using settings::choice;
+using settings::described;
+using settings::duration;
+using settings::duration_text;
+using settings::durations;
+using settings::Errors;
+using settings::field;
+using settings::hex4;
+using settings::in_enum_order;
+using settings::in_quotes;
+using settings::integers;
+using settings::Key;
+using settings::Keys;
+using settings::listed;
+using settings::listed_in;
+using settings::names;
+using settings::Need;
+using settings::Range;
+using settings::read_keys;
+using settings::Section;
+using settings::Table;
+using settings::words;
 
 // Bus, drive and poll names: [a-z0-9_-]+ (they name services and appear in logs).
 [[nodiscard]] bool valid_name(std::string_view name) noexcept;
@@ -34,23 +54,9 @@ using profile_detail::Section;
 bool fits_shm(Section& s, std::string_view key, std::string_view text, std::size_t field_size, std::string_view field);
 // "bus #2": an entry of an array of tables before its name is known, counting from 1.
 [[nodiscard]] std::string entry_name(std::string_view array, std::size_t index);
-// "none, even, odd".
-[[nodiscard]] std::string listed(std::span<const std::string_view> names);
 
 // How errors name a drive type: "Altivar 58", or its type when the profile has no title.
 [[nodiscard]] std::string title_of(const Profile& profile);
-
-// "100ms", "1s", "1500us": the largest unit that keeps the number whole.
-[[nodiscard]] std::string duration_text(Duration duration);
-
-// Checks a duration written as `text` under `key` against lo..hi.
-std::optional<Duration> checked_duration(Section& s, std::string_view key, std::string_view text, Duration lo,
-                                         Duration hi);
-// Reads a duration key of `table` (a string such as "100ms") and checks it against lo..hi.
-std::optional<Duration> duration(Section& s, const toml::table& table, std::string_view key, Duration lo, Duration hi,
-                                 Need need = Need::Optional);
-// Reads a string key that must be one of `names`; its index in `names`.
-std::optional<std::size_t> choice(Section& s, std::string_view key, std::span<const std::string_view> names);
 
 // Profiles by type, each loaded once and shared by every drive of that type.
 class ProfileCache {

@@ -7,7 +7,6 @@
 
 #include "drivebus/profile.hpp"
 #include "parse_sections.hpp"
-#include "profile/toml_reader.hpp"
 
 #ifndef DRIVEBUS_SOURCE_PROFILE_DIR
 #error "DRIVEBUS_SOURCE_PROFILE_DIR must be defined by the build"

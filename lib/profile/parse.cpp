@@ -6,7 +6,6 @@
 
 #include "drivebus/profile.hpp"
 #include "parse_sections.hpp"
-#include "profile/toml_reader.hpp"
 
 namespace drivebus {
 namespace {
@@ -23,15 +22,6 @@ std::string lower(std::string_view text) {
     std::ranges::transform(out, out.begin(),
                            [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c + 32) : c; });
     return out;
-}
-
-ProfileError syntax_error(std::string_view source, const toml::parse_error& e) {
-    std::string line = std::string(source) + ": line " + std::to_string(e.source().begin.line) + ", column " +
-                       std::to_string(e.source().begin.column) + ": ";
-    for (const char c : e.description()) {
-        line += (c == '\n' || c == '\r') ? ' ' : c;
-    }
-    return ProfileError{std::move(line)};
 }
 
 void read_tables(const toml::table& root, Errors& errors, Profile& profile) {
@@ -169,15 +159,13 @@ void check_blocks(Profile& profile, Errors& errors) {
 }  // namespace
 
 std::expected<Profile, ProfileError> parse_profile(std::string_view text, std::string_view source) {
-    toml::table root;
-    try {
-        root = toml::parse(text, std::string(source));
-    } catch (const toml::parse_error& e) {
-        return std::unexpected(syntax_error(source, e));
+    auto root = settings::parse_toml(text, source);
+    if (!root) {
+        return std::unexpected(ProfileError{std::move(root.error())});
     }
     Errors errors(source);
     Profile profile;
-    read_tables(root, errors, profile);
+    read_tables(*root, errors, profile);
     if (!errors.any()) {
         check_registers(profile, errors);
         check_fault_codes(profile, errors);
@@ -186,7 +174,7 @@ std::expected<Profile, ProfileError> parse_profile(std::string_view text, std::s
         profile_detail::check_safety(profile, errors);
     }
     if (errors.any()) {
-        return std::unexpected(errors.error());
+        return std::unexpected(ProfileError{errors.message()});
     }
     return profile;
 }

@@ -8,9 +8,18 @@
 #include <string_view>
 
 #include "drivebus/profile.hpp"
-#include "profile/toml_reader.hpp"
+#include "settings/reader.hpp"
 
 namespace drivebus::profile_detail {
+
+using settings::Errors;
+using settings::hex4;
+using settings::in_quotes;
+using settings::key_integer;
+using settings::Need;
+using settings::number_text;
+using settings::read_small_file;
+using settings::Section;
 
 void read_drive(const toml::table& table, Errors& errors, Profile& profile);
 void read_functions(const toml::table& table, Errors& errors, FunctionSupport& functions);

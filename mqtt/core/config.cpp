@@ -6,15 +6,15 @@
 #include <sstream>
 
 #include "duration/duration.hpp"
-#include "profile/toml_reader.hpp"
+#include "settings/reader.hpp"
 
 namespace drivebus::mqtt {
 namespace {
 
-using profile_detail::Errors;
-using profile_detail::in_quotes;
-using profile_detail::Need;
-using profile_detail::Section;
+using settings::Errors;
+using settings::in_quotes;
+using settings::Need;
+using settings::Section;
 
 constexpr std::uintmax_t kMaxConfigSize = 1 << 20;
 
@@ -243,7 +243,7 @@ std::expected<Config, ConfigError> parse_config(std::string_view text, std::stri
         c.buses.push_back(std::move(b));
     }
     if (!errors.any() && !c.broker.password_file.empty()) {
-        auto password = profile_detail::read_small_file(c.broker.password_file, 4096, "password file");
+        auto password = settings::read_small_file(c.broker.password_file, 4096, "password file");
         if (!password) {
             errors.add("broker", "password_file: " + password.error());
         } else {
@@ -255,13 +255,13 @@ std::expected<Config, ConfigError> parse_config(std::string_view text, std::stri
         }
     }
     if (errors.any()) {
-        return std::unexpected(ConfigError{errors.error().message});
+        return std::unexpected(ConfigError{errors.message()});
     }
     return c;
 }
 
 std::expected<Config, ConfigError> load_config(const std::filesystem::path& file, std::string_view hostname) {
-    auto text = profile_detail::read_small_file(file, kMaxConfigSize, "configuration");
+    auto text = settings::read_small_file(file, kMaxConfigSize, "configuration");
     if (!text) {
         return std::unexpected(ConfigError{text.error()});
     }

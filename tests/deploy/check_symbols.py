@@ -15,7 +15,7 @@ import re
 import subprocess
 import sys
 
-HIDDEN = ("drivebus::profile_detail::", "::Impl::", "toml::")
+HIDDEN = ("drivebus::profile_detail::", "drivebus::settings::", "::Impl::", "toml::")
 
 
 def exported(library):

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gateway/network.hpp"
+#include "settings/reference.hpp"
 
 namespace drivebus::gateway {
 
@@ -51,6 +52,10 @@ struct Config {
 struct ConfigError {
     std::string message;  // one line: "gateway.toml: gateway: max_age: ..."
 };
+
+// The keys of [gateway] and [[unit]] as the reader's tables state them: what docs/gateway.md
+// and drivebus-gateway(8) describe, and what a test checks them against.
+[[nodiscard]] std::vector<settings::SectionReference> reference();
 
 [[nodiscard]] std::expected<Config, ConfigError> parse_config(std::string_view text, std::string_view source);
 [[nodiscard]] std::expected<Config, ConfigError> load_config(const std::filesystem::path& file);

@@ -1,17 +1,19 @@
 // SPDX-License-Identifier: Apache-2.0
-// The tables the configuration file is read by, one per section: each key with its TOML type,
+// Typed key tables: a section of a file is read by a table of its keys, each with its TOML type,
 // its range, the field it fills and one line of doc. A section's table reads it and lists its
-// only keys (anything else is an unknown key); reference() shows the same tables, which is what
-// the documentation is tested against. Rules that span keys stay as code next to each table.
+// only keys (anything else is an unknown key); described() shows the same table, which is what
+// a program's documentation is tested against. Rules that span keys stay as code next to each
+// table. drivebusd, drivebus-gateway, drivebus-mqtt and drivebusctl read their files by them.
 //
-// Defaults live in the structs' default member initialisers and nowhere else: the master's
-// BusPlan and DrivePlan are also built directly (tests, benchmarks) and need them there, so a
-// table shows what a default-constructed struct holds rather than repeating the number, and a
+// Defaults live in the structs' default member initialisers and nowhere else (drivebusd's
+// BusPlan and DrivePlan are also built directly, by tests and benchmarks, and need them there):
+// a table shows what a default-constructed struct holds rather than repeating the number, and a
 // reader leaves a field alone when its key is absent.
 #pragma once
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -23,10 +25,26 @@
 #include <type_traits>
 #include <vector>
 
-#include "config/reference.hpp"
-#include "read.hpp"
+#include "settings/reader.hpp"
+#include "settings/reference.hpp"
 
-namespace drivebus::config::detail {
+namespace drivebus::settings {
+
+// Every duration a file holds, to the nanosecond.
+using Duration = std::chrono::nanoseconds;
+
+// "none, even, odd".
+[[nodiscard]] std::string listed(std::span<const std::string_view> names);
+// "100ms", "1s", "1500us": the largest unit that keeps the number whole.
+[[nodiscard]] std::string duration_text(Duration duration);
+// Checks a duration written as `text` under `key` against lo..hi.
+std::optional<Duration> checked_duration(Section& s, std::string_view key, std::string_view text, Duration lo,
+                                         Duration hi);
+// Reads a duration key of `table` (a string such as "100ms") and checks it against lo..hi.
+std::optional<Duration> duration(Section& s, const toml::table& table, std::string_view key, Duration lo, Duration hi,
+                                 Need need = Need::Optional);
+// Reads a string key that must be one of `names`; its index in `names`.
+std::optional<std::size_t> choice(Section& s, std::string_view key, std::span<const std::string_view> names);
 
 // How a range is stated.
 enum class Form : std::uint8_t { None, Words, Integers, Durations, Names };
@@ -99,6 +117,12 @@ inline constexpr bool kOptional = false;
 template <typename V>
 inline constexpr bool kOptional<std::optional<V>> = true;
 
+// A std::chrono::duration of any unit: a program may keep a duration in milliseconds.
+template <typename V>
+inline constexpr bool kChrono = false;
+template <typename Rep, typename Period>
+inline constexpr bool kChrono<std::chrono::duration<Rep, Period>> = true;
+
 // "\"100ms\"", "64", "true", "none" for an empty optional, list or path.
 template <typename V>
 std::string shown_value(const V& value, std::span<const std::string_view> names) {
@@ -110,8 +134,8 @@ std::string shown_value(const V& value, std::span<const std::string_view> names)
         return index < names.size() ? quoted(names[index]) : "?";
     } else if constexpr (std::is_integral_v<V>) {
         return std::to_string(+value);
-    } else if constexpr (std::is_same_v<V, Duration>) {
-        return quoted(duration_text(value));
+    } else if constexpr (kChrono<V>) {
+        return quoted(duration_text(std::chrono::duration_cast<Duration>(value)));
     } else if constexpr (std::is_same_v<V, std::string>) {
         return quoted(value);
     } else if constexpr (std::is_same_v<V, std::filesystem::path>) {
@@ -148,6 +172,11 @@ struct Keys {
                                 Need need = Need::Optional) {
         return {name, "duration", need, durations(shortest, longest), &read_duration<Path...>, &shown<Path...>, doc};
     }
+    // A string, into a std::string field; `range` states what it may be ("a bus name").
+    template <auto... Path>
+    static constexpr K text(std::string_view name, Range range, std::string_view doc, Need need = Need::Optional) {
+        return {name, "string", need, range, &read_text<Path...>, &shown<Path...>, doc};
+    }
     // A string among `values`, into an enum field whose enumerators are in their order.
     template <auto... Path>
     static constexpr K choice(std::string_view name, std::span<const std::string_view> values, std::string_view doc) {
@@ -180,17 +209,39 @@ struct Keys {
             field<Path...>(out) = *read;
         }
     }
+    // Into a Duration (or an optional one), or into a coarser unit when the value is a whole
+    // number of it: a gateway that counts in milliseconds refuses "1500us" rather than cut it.
     template <auto... Path>
     static void read_duration(Section& s, const toml::table& table, const K& key, T& out) {
         const auto& range = key.range;
-        if (const auto read = detail::duration(s, table, key.name, range.shortest, range.longest, key.need)) {
-            field<Path...>(out) = *read;
+        const auto read = settings::duration(s, table, key.name, range.shortest, range.longest, key.need);
+        if (!read) {
+            return;
+        }
+        auto& value = field<Path...>(out);
+        using V = std::remove_cvref_t<decltype(value)>;
+        if constexpr (std::is_assignable_v<V&, Duration>) {
+            value = *read;
+        } else {
+            const auto whole = std::chrono::duration_cast<V>(*read);
+            if (whole != *read) {
+                s.fail(std::string(key.name) + " " + duration_text(*read) + " is not a whole number of " +
+                       duration_text(std::chrono::duration_cast<Duration>(V(1))).substr(1));
+                return;
+            }
+            value = whole;
+        }
+    }
+    template <auto... Path>
+    static void read_text(Section& s, const toml::table& /*table*/, const K& key, T& out) {
+        if (auto read = s.string(key.name, key.need)) {
+            field<Path...>(out) = std::move(*read);
         }
     }
     template <auto... Path>
     static void read_choice(Section& s, const toml::table& /*table*/, const K& key, T& out) {
         auto& value = field<Path...>(out);
-        if (const auto index = detail::choice(s, key.name, key.range.names)) {
+        if (const auto index = settings::choice(s, key.name, key.range.names)) {
             value = static_cast<std::remove_cvref_t<decltype(value)>>(*index);
         }
     }
@@ -238,4 +289,4 @@ SectionReference described(std::string_view section, const Table<T, N>& keys) {
     return out;
 }
 
-}  // namespace drivebus::config::detail
+}  // namespace drivebus::settings

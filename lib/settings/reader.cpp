@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // Strict typed access to TOML tables, with one-line errors.
-#include "profile/toml_reader.hpp"
+#include "settings/reader.hpp"
 
 #include <algorithm>
 #include <array>
 #include <charconv>
 #include <fstream>
 
-namespace drivebus::profile_detail {
+namespace drivebus::settings {
 namespace {
 
 std::string_view type_name(toml::node_type type) noexcept {
@@ -284,6 +284,19 @@ std::optional<std::int64_t> key_integer(std::string_view key) {
     return negative ? -value : value;
 }
 
+std::expected<toml::table, std::string> parse_toml(std::string_view text, std::string_view source) {
+    try {
+        return toml::parse(text, source);
+    } catch (const toml::parse_error& e) {
+        std::string line = std::string(source) + ": line " + std::to_string(e.source().begin.line) + ", column " +
+                           std::to_string(e.source().begin.column) + ": ";
+        for (const char c : e.description()) {
+            line += (c == '\n' || c == '\r') ? ' ' : c;
+        }
+        return std::unexpected(std::move(line));
+    }
+}
+
 std::expected<std::string, std::string> read_small_file(const std::filesystem::path& file, std::uintmax_t max_size,
                                                         std::string_view what) {
     namespace fs = std::filesystem;
@@ -311,4 +324,4 @@ std::expected<std::string, std::string> read_small_file(const std::filesystem::p
     return text;
 }
 
-}  // namespace drivebus::profile_detail
+}  // namespace drivebus::settings

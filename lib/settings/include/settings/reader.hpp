@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// Strict reading of TOML tables for the profile parser: typed getters whose errors name the
-// table and the key, and a check that rejects unknown keys. Used by lib/profile/ and by the
-// configuration readers of drivebusd (daemon/config/) and drivebus-gateway (gateway/config.cpp),
-// so that every file of drivebus reports its errors alike.
+// Strict reading of TOML tables: typed getters whose errors name the file, the table and the
+// key in one line, and a check that rejects unknown keys. Every file drivebus reads goes through
+// it (profiles, drivebusd.toml, gateway.toml, mqtt.toml, and drivebusctl's reading of
+// drivebusd.toml), so that one mistake is worded alike wherever it is made. The typed key tables
+// on top of it are settings/keys.hpp.
 #pragma once
 
 #include <cstdint>
@@ -17,9 +18,7 @@
 
 #include <toml++/toml.h>
 
-#include "drivebus/profile.hpp"
-
-namespace drivebus::profile_detail {
+namespace drivebus::settings {
 
 // Keeps the first error of a parse: later ones often only follow from it.
 class Errors {
@@ -28,7 +27,8 @@ public:
 
     void add(std::string_view where, std::string_view what);
     [[nodiscard]] bool any() const noexcept { return first_.has_value(); }
-    [[nodiscard]] ProfileError error() const { return ProfileError{first_.value_or("")}; }
+    // "file.toml: bus line1: baud 1234 is not a standard rate"; empty when there is none.
+    [[nodiscard]] std::string message() const { return first_.value_or(""); }
 
 private:
     std::string source_;
@@ -84,9 +84,13 @@ private:
 // An integer written as a TOML key ("7", "-1", "0x1875"); nullopt if the key is not one.
 [[nodiscard]] std::optional<std::int64_t> key_integer(std::string_view key);
 
+// The file `text` holds, parsed; else its first syntax error in one line, named by `source`:
+// "x.toml: line 3, column 7: expected '='".
+[[nodiscard]] std::expected<toml::table, std::string> parse_toml(std::string_view text, std::string_view source);
+
 // Reads a whole regular file of at most `max_size` bytes; the error is one line naming the file
 // ("x.toml: 2000000 bytes is too large for a profile").
 std::expected<std::string, std::string> read_small_file(const std::filesystem::path& file, std::uintmax_t max_size,
                                                         std::string_view what);
 
-}  // namespace drivebus::profile_detail
+}  // namespace drivebus::settings
