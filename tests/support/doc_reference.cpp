@@ -94,11 +94,12 @@ std::map<std::string, std::map<std::string, DocRow>> doc_tables(std::string_view
     for (std::size_t i = 0; i < lines.size(); ++i) {
         const std::string_view line = lines[i];
         if (line.starts_with("#")) {
-            // The heading's first code span names the section: "## `[realtime]` (optional)".
+            // The heading's first code span names the section: "## `[realtime]` (optional)"; a
+            // heading without one, in its words: "### The top level".
             const auto open = line.find('`');
             const auto close = open == std::string_view::npos ? open : line.find('`', open + 1);
             section =
-                close == std::string_view::npos ? nullptr : section_in(line.substr(open, close - open + 1), sections);
+                section_in(close == std::string_view::npos ? line : line.substr(open, close - open + 1), sections);
             if (section != nullptr) {
                 tables[section->name];  // present, even without a table
             }

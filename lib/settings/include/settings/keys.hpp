@@ -134,6 +134,8 @@ std::string shown_value(const V& value, std::span<const std::string_view> names)
         return index < names.size() ? quoted(names[index]) : "?";
     } else if constexpr (std::is_integral_v<V>) {
         return std::to_string(+value);
+    } else if constexpr (std::is_floating_point_v<V>) {
+        return number_text(value);
     } else if constexpr (kChrono<V>) {
         return quoted(duration_text(std::chrono::duration_cast<Duration>(value)));
     } else if constexpr (std::is_same_v<V, std::string>) {
@@ -176,6 +178,11 @@ struct Keys {
     template <auto... Path>
     static constexpr K text(std::string_view name, Range range, std::string_view doc, Need need = Need::Optional) {
         return {name, "string", need, range, &read_text<Path...>, &shown<Path...>, doc};
+    }
+    // A file's path, into a std::filesystem::path field; `range` states what it may be.
+    template <auto... Path>
+    static constexpr K path(std::string_view name, Range range, std::string_view doc, Need need = Need::Optional) {
+        return {name, "string", need, range, &read_path<Path...>, &shown<Path...>, doc};
     }
     // A string among `values`, into an enum field whose enumerators are in their order.
     template <auto... Path>
@@ -230,6 +237,16 @@ struct Keys {
                 return;
             }
             value = whole;
+        }
+    }
+    template <auto... Path>
+    static void read_path(Section& s, const toml::table& /*table*/, const K& key, T& out) {
+        if (auto read = s.string(key.name, key.need)) {
+            if (read->empty()) {
+                s.fail(std::string(key.name) + " is empty");
+                return;
+            }
+            field<Path...>(out) = std::move(*read);
         }
     }
     template <auto... Path>

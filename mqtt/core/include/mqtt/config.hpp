@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // drivebus-mqtt's configuration: read and validated once at start-up into an immutable struct.
-// A bad key is one line that names it (the profile loader's strict TOML reader).
+// A bad key is one line that names it (the settings library's key tables, lib/settings).
 #pragma once
 
 #include <chrono>
@@ -11,6 +11,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "settings/reference.hpp"
 
 namespace drivebus::mqtt {
 
@@ -75,6 +77,10 @@ struct Config {
 struct ConfigError {
     std::string message;  // one line: "bridge.toml: broker: unknown key 'hots'"
 };
+
+// The keys of each table as the reader's tables state them: what docs/mqtt.md describes, and
+// what a test checks it against.
+[[nodiscard]] std::vector<settings::SectionReference> reference();
 
 // Parses configuration text; `source` names it in errors; `hostname` is the node's default.
 // Files named (the password file) are read relative to the working directory.
