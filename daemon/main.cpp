@@ -90,6 +90,15 @@ void warn(const config::Config& c) {
     }
 }
 
+// For drivebusctl udev-rule: each direction = "gpio" bus as "BUS<tab>CHIP<tab>LINE", as written.
+void print_gpio_lines(const config::Config& c, std::ostream& out) {
+    for (const auto& bus : c.buses) {
+        if (bus.direction == config::DirectionMode::Gpio && bus.gpio) {
+            out << bus.name << '\t' << bus.gpio->chip << '\t' << bus.gpio->line << '\n';
+        }
+    }
+}
+
 // The warnings, and the permanent misconfigurations of the lines (a GPIO chip that is not
 // there, RS485 the driver lacks): the first of those is the error.
 std::expected<void, std::string> check_and_warn(const config::Config& c) {
@@ -109,6 +118,7 @@ int run_main(int argc, char** argv) {
     std::string profile_dir;
     bool check_only = false;
     bool check_line = false;
+    bool gpio_lines = false;
     std::string line_bus;
     bool verbose = false;
     CLI::App app{"drivebusd: Modbus RTU master for drives on RS485 lines"};
@@ -119,6 +129,10 @@ int run_main(int argc, char** argv) {
                                    "check each bus's line and read each drive once, with drivebusd stopped (0 all "
                                    "answered, 1 not, 78 what the configuration asks cannot be had)");
     app.add_option("--bus", line_bus, "with --check-line: only this bus")->needs(line_flag);
+    app.add_flag("--gpio-lines", gpio_lines,
+                 "print each direction = \"gpio\" bus as BUS, CHIP and LINE (tab-separated) once the configuration "
+                 "is valid, and exit; nothing is opened (drivebusctl udev-rule --config)")
+        ->excludes(line_flag);
     app.add_option("--profile-dir", profile_dir, "directory with the drive profiles (TYPE.toml)");
     app.add_flag("--verbose,-v", verbose, "log debug messages");
     try {
@@ -148,6 +162,10 @@ int run_main(int argc, char** argv) {
     if (!config) {
         log::error(config.error().message);
         return kExitConfig;
+    }
+    if (gpio_lines) {
+        print_gpio_lines(*config, std::cout);
+        return 0;
     }
     if (check_line) {
         warn(*config);

@@ -24,6 +24,7 @@
 #include "as_root.hpp"
 #include "commands.hpp"
 #include "drivebus/version.hpp"
+#include "drivebusd_run.hpp"
 #include "format.hpp"
 #include "steps.hpp"
 #include "udev_command.hpp"
@@ -59,8 +60,7 @@ int run_line_check(const ctl::Options& options, const std::string& config) {
         return usage_error(options,
                            "line-check: no --json output (its report is for people; its exit code for scripts)");
     }
-    const char* named = std::getenv("DRIVEBUSD");
-    const std::string program = named != nullptr && *named != '\0' ? named : DRIVEBUSD_INSTALLED;
+    const std::string program = ctl::drivebusd_program();
     std::vector<std::string> args = {program, "--config", config, "--check-line"};
     if (!options.bus.empty()) {
         args.insert(args.end(), {"--bus", options.bus});
@@ -180,6 +180,7 @@ int main(int argc, char** argv) {
     }
 
     if (udev_rule->parsed()) {
+        udev.profile_dir = options.profile_dir;
         return ctl::run_udev_rule(udev);
     }
     if (line_check->parsed()) {

@@ -15,6 +15,7 @@
 #include <memory>
 #include <sstream>
 
+#include "drivebusd_run.hpp"
 #include "format.hpp"
 
 namespace drivebus::ctl {
@@ -185,6 +186,37 @@ int fail(const RuleError& e) {
     return kExitUsage;
 }
 
+// The GPIO lines of the configuration's buses, as drivebusd reads it: the file, its fragments
+// and the profiles, every rule checked (a file drivebusd would refuse gives no rule).
+Result<std::vector<udev::GpioUse>> configured_gpio(const UdevRuleArgs& args) {
+    std::vector<std::string> command = {"--config", args.config, "--gpio-lines"};
+    if (!args.profile_dir.empty()) {
+        command.insert(command.end(), {"--profile-dir", args.profile_dir});
+    }
+    const auto run = run_drivebusd(command);
+    if (!run) {
+        return std::unexpected(error(RuleErrorKind::NotFound,
+                                     run.error() + "; --config is read by drivebusd (install the drivebusd package, "
+                                                   "or name it with DRIVEBUSD=PATH)"));
+    }
+    if (run->exit_code != 0) {
+        // drivebusd's own line: "drivebusd: error: drivebusd.toml: bus 'line1': ...".
+        std::string said = run->err;
+        while (!said.empty() && said.back() == '\n') {
+            said.pop_back();
+        }
+        said = said.substr(said.rfind('\n') + 1);
+        if (const auto at = said.find(": error: "); at != std::string::npos) {
+            said = said.substr(at + 9);
+        }
+        return std::unexpected(
+            error(RuleErrorKind::Usage,
+                  said.empty() ? fmt::format("{}: drivebusd --gpio-lines exited with {}", args.config, run->exit_code)
+                               : said));
+    }
+    return udev::gpio_uses(run->out, args.config);
+}
+
 }  // namespace
 
 int run_udev_rule(const UdevRuleArgs& args) {
@@ -236,11 +268,7 @@ int run_udev_rule(const UdevRuleArgs& args) {
         wanted.push_back(udev::GpioUse{{}, name, -1});
     }
     if (!args.config.empty()) {
-        auto text = read_file(args.config);
-        if (!text) {
-            return fail(text.error());
-        }
-        auto uses = udev::gpio_uses(*text, args.config);
+        auto uses = configured_gpio(args);
         if (!uses) {
             return fail(uses.error());
         }

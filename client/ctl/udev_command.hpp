@@ -16,6 +16,7 @@ struct UdevRuleArgs {
     std::vector<std::string> properties;  // --properties FILE: one device each, a tty or a GPIO chip
     std::vector<std::string> gpio_chips;  // --gpio-chip NAME: gpiochipN, /dev/gpiochipN, N or a label
     std::string config;                   // --config FILE: the GPIO chips of its direction = "gpio" buses
+    std::string profile_dir;              // --profile-dir DIR: drivebusd reads the config's profiles there
     udev::PortChoice choice;
 };
 

@@ -3,10 +3,10 @@
 
 #include <fmt/format.h>
 
-#include <toml++/toml.h>
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <charconv>
 
 namespace drivebus::ctl::udev {
 namespace {
@@ -486,41 +486,30 @@ std::optional<std::string> gpio_chip_devname(std::string_view chip) {
     return "gpiochip" + std::string(chip);
 }
 
-Result<std::vector<GpioUse>> gpio_uses(std::string_view toml_text, std::string_view source) {
-    toml::table root;
-    try {
-        root = toml::parse(toml_text, std::string(source));
-    } catch (const toml::parse_error& e) {
-        std::string description(e.description());
-        std::ranges::replace(description, '\n', ' ');
-        return std::unexpected(
-            error(RuleErrorKind::Usage, fmt::format("{}: line {}: {}", source, e.source().begin.line, description)));
-    }
+Result<std::vector<GpioUse>> gpio_uses(std::string_view lines, std::string_view source) {
     std::vector<GpioUse> uses;
-    const auto* buses = root["bus"].as_array();
-    if (buses != nullptr) {
-        std::size_t index = 0;
-        for (const auto& node : *buses) {
-            ++index;
-            const auto* bus = node.as_table();
-            if (bus == nullptr || (*bus)["direction"].value_or(std::string_view{}) != "gpio") {
-                continue;
+    while (!lines.empty()) {
+        const auto end = lines.find('\n');
+        const auto line = lines.substr(0, end);
+        lines.remove_prefix(end == std::string_view::npos ? lines.size() : end + 1);
+        const auto first = line.find('\t');
+        const auto second = first == std::string_view::npos ? first : line.find('\t', first + 1);
+        long long number = -1;
+        if (second != std::string_view::npos) {
+            const auto text = line.substr(second + 1);
+            const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), number);
+            if (ec != std::errc{} || ptr != text.data() + text.size()) {
+                number = -1;
             }
-            GpioUse use;
-            use.bus = (*bus)["name"].value_or(fmt::format("#{}", index));
-            const auto chip = (*bus)["gpio_chip"].value<std::string>();
-            const auto line = (*bus)["gpio_line"].value<long long>();
-            if (!chip || chip->empty() || !line) {
-                return std::unexpected(
-                    error(RuleErrorKind::Usage,
-                          fmt::format("{}: bus '{}': direction = \"gpio\" needs gpio_chip and gpio_line (drivebusd "
-                                      "--check-config says more)",
-                                      source, use.bus)));
-            }
-            use.chip = *chip;
-            use.line = *line;
-            uses.push_back(std::move(use));
         }
+        if (number < 0 || first == 0 || second == first + 1) {
+            return std::unexpected(
+                error(RuleErrorKind::Usage, fmt::format("{}: drivebusd --gpio-lines printed \"{}\", not BUS, CHIP and "
+                                                        "LINE apart by tabs (is DRIVEBUSD another program?)",
+                                                        source, line)));
+        }
+        uses.push_back(GpioUse{std::string(line.substr(0, first)),
+                               std::string(line.substr(first + 1, second - first - 1)), number});
     }
     if (uses.empty()) {
         return std::unexpected(error(RuleErrorKind::Usage,

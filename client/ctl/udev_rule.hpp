@@ -82,8 +82,10 @@ struct GpioChip {
 // "gpiochip3" for "gpiochip3", "/dev/gpiochip3" or "3"; nullopt for anything else (a label).
 [[nodiscard]] std::optional<std::string> gpio_chip_devname(std::string_view chip);
 
-// The buses of a drivebusd.toml with direction = "gpio": their gpio_chip and gpio_line.
-[[nodiscard]] Result<std::vector<GpioUse>> gpio_uses(std::string_view toml_text, std::string_view source);
+// The buses with direction = "gpio" of a configuration, from what `drivebusd --config FILE
+// --gpio-lines` printed of it (a line "BUS<tab>CHIP<tab>LINE" each: drivebusd reads the file, its
+// fragments and the profiles); `source` names the file in errors. None is an error.
+[[nodiscard]] Result<std::vector<GpioUse>> gpio_uses(std::string_view lines, std::string_view source);
 
 // systemd's name for the device unit of /dev/drivebus/<name>: dev-drivebus-rs485\x2d0.device.
 [[nodiscard]] std::string device_unit(std::string_view name);

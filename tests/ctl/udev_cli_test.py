@@ -2,14 +2,16 @@
 # SPDX-License-Identifier: Apache-2.0
 """drivebusctl udev-rule as a program: on the property samples of tests/ctl/udev/, its exit
 status, stdout and stderr, and every file it prints through the deploy rule checker
-(tests/deploy/check_udev_rules.py). No drivebusd or RouDi runs: the command needs neither.
+(tests/deploy/check_udev_rules.py). No RouDi runs and no drivebusd stays: --config FILE is read
+by `drivebusd --config FILE --gpio-lines` (DRIVEBUSD names the build's), which opens nothing.
 
 The example udev/60-drivebus-rs485-0.rules.example must be, after its first comment
 lines, what the program prints for the FT232R sample.
 
-usage: udev_cli_test.py DRIVEBUSCTL CHECK_UDEV_RULES SAMPLES_DIR EXAMPLES_DIR RULES_EXAMPLE
+usage: udev_cli_test.py DRIVEBUSCTL DRIVEBUSD CHECK_UDEV_RULES SAMPLES_DIR EXAMPLES_DIR RULES_EXAMPLE
 """
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -17,8 +19,12 @@ import tempfile
 failures = []
 
 
-def run(ctl, *args):
-    return subprocess.run([ctl, "udev-rule", *args], capture_output=True, text=True, timeout=30, check=False)
+def run(ctl, *args, drivebusd=None):
+    env = dict(os.environ)
+    if drivebusd is not None:
+        env["DRIVEBUSD"] = drivebusd
+    return subprocess.run([ctl, "udev-rule", *args], capture_output=True, text=True, timeout=30, check=False,
+                          env=env, stdin=subprocess.DEVNULL)
 
 
 def expect(cond, what):
@@ -28,9 +34,26 @@ def expect(cond, what):
 
 
 def main(argv):
-    if len(argv) != 6:
+    if len(argv) != 7:
         sys.exit(__doc__)
-    ctl, checker, samples, examples, rules_example = argv[1:]
+    ctl, drivebusd, checker, samples, examples, rules_example = argv[1:]
+    tmp = tempfile.mkdtemp(prefix="drivebus-udev-")
+    # A GPIO bus in a fragment (drivebusd.d/*.toml) beside a file that has none: drivebusd reads both.
+    fragmented = os.path.join(tmp, "drivebusd.toml")
+    with open(fragmented, "w", encoding="utf-8") as f:
+        f.write('[[bus]]\nname = "line1"\ndevice = "/dev/ttyS1"\n'
+                '  [[bus.drive]]\n  name = "pump"\n  address = 1\n  profile = "atv21"\n')
+    os.mkdir(os.path.join(tmp, "drivebusd.d"))
+    with open(os.path.join(tmp, "drivebusd.d", "line2.toml"), "w", encoding="utf-8") as f:
+        f.write('[[bus]]\nname = "line2"\ndevice = "/dev/ttyS2"\ndirection = "gpio"\n'
+                'gpio_chip = "gpiochip0"\ngpio_line = 5\n'
+                '  [[bus.drive]]\n  name = "fan"\n  address = 2\n  profile = "atv21"\n')
+    # One drivebusd refuses.
+    refused_config = os.path.join(tmp, "refused.toml")
+    with open(refused_config, "w", encoding="utf-8") as f:
+        f.write('[[bus]]\nname = "line1"\ndevice = "/dev/ttyS1"\ndirection = "gpio"\n'
+                'gpio_chip = "gpiochip0"\ngpio_line = 5000\n'
+                '  [[bus.drive]]\n  name = "pump"\n  address = 1\n  profile = "atv21"\n')
     s = lambda name: os.path.join(samples, name + ".properties")  # noqa: E731
 
     # Accepted: (arguments, parts stdout must hold).
@@ -52,10 +75,12 @@ def main(argv):
         (["--properties", s("ft232r"), "--properties", s("gpiochip0"), "--config", os.path.join(examples, "gpio.toml")],
          ["bus 'line1' drives its transceiver's enable on line 17", 'GROUP="drivebusd", MODE="0660"',
           'SYMLINK+="drivebus/rs485-0"']),
+        (["--properties", s("gpiochip0"), "--config", fragmented],
+         ["bus 'line2' drives its transceiver's enable on line 5", 'GROUP="drivebusd", MODE="0660"']),
     ]
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as rules:
         for i, (args, parts) in enumerate(accepted):
-            p = run(ctl, *args)
+            p = run(ctl, *args, drivebusd=drivebusd)
             what = " ".join(os.path.basename(a) for a in args)
             expect(p.returncode == 0, f"{what}: exit {p.returncode}, stderr {p.stderr!r}")
             expect(p.stderr == "", f"{what}: stderr {p.stderr!r}")
@@ -64,14 +89,20 @@ def main(argv):
             expect("KERNEL" not in p.stdout, f"{what}: a kernel name match")
             if "--start" not in args:
                 expect("SYSTEMD_WANTS" not in p.stdout, f"{what}: SYSTEMD_WANTS without --start")
-            path = os.path.join(tmp, f"{i}.rules")
+            path = os.path.join(rules, f"{i}.rules")
             with open(path, "w", encoding="utf-8") as f:
                 f.write(p.stdout)
             c = subprocess.run([sys.executable, checker, path], capture_output=True, text=True, check=False)
             expect(c.returncode == 0, f"{what}: the rule checker says: {c.stdout.strip()}")
 
-    # Refused or wrong: (arguments, exit status, part of the one line on stderr).
+    # Refused or wrong: (arguments, exit status, part of the one line on stderr[, DRIVEBUSD]).
     refused = [
+        (["--properties", s("gpiochip0"), "--config", refused_config], 2,
+         f"{refused_config}: bus 'line1': gpio_line 5000 is above 1023"),
+        (["--properties", s("gpiochip0"), "--config", os.path.join(examples, "sim.toml")], 2,
+         'no bus has direction = "gpio"'),
+        (["--properties", s("gpiochip0"), "--config", fragmented], 5, "cannot run /nonexistent/drivebusd",
+         "/nonexistent/drivebusd"),
         (["--properties", s("ch340")], 3, "has no serial number"),
         (["--properties", s("pl2303")], 3, "run again with --by-path"),
         (["--properties", s("cp2102-clone")], 3, "which many adapters of its kind share"),
@@ -89,8 +120,8 @@ def main(argv):
         (["/dev/null"], 3, "is not a serial port"),
         (["/dev/ttyDRIVEBUSNONE"], 5, "/dev/ttyDRIVEBUSNONE"),
     ]
-    for args, status, part in refused:
-        p = run(ctl, *args)
+    for args, status, part, *program in refused:
+        p = run(ctl, *args, drivebusd=program[0] if program else drivebusd)
         what = " ".join(os.path.basename(a) for a in args) or "(no arguments)"
         expect(p.returncode == status, f"{what}: exit {p.returncode}, not {status}; stderr {p.stderr!r}")
         expect(p.stdout == "", f"{what}: stdout {p.stdout!r}")
@@ -105,6 +136,7 @@ def main(argv):
     expect(example == head + "\n" + generated,
            f"{rules_example} is not the output for ft232r.properties after its {head.count(chr(10)) + 1} first lines")
 
+    shutil.rmtree(tmp)
     print(f"udev-rule: {len(accepted)} accepted, {len(refused)} refused; "
           f"{'OK' if not failures else f'{len(failures)} failure(s)'}")
     return 1 if failures else 0

@@ -266,20 +266,27 @@ TEST(UdevRule, AGpioChipGoesToTheDaemonGroupOnly) {
     EXPECT_TRUE(has(rules_file(std::nullopt, {}, {chip}).error().message, "is not a GPIO chip"));
 }
 
-TEST(UdevRule, GpioUsesComeFromTheConfigurationsGpioBuses) {
-    const auto uses = gpio_uses(read(std::string(EXAMPLES_DIR) + "/gpio.toml"), "gpio.toml");
+// What drivebusd --gpio-lines prints of a configuration (the program is run by UdevRuleCli).
+TEST(UdevRule, GpioUsesComeFromWhatDrivebusdPrintsOfTheGpioBuses) {
+    const auto uses = gpio_uses("line1\tgpiochip0\t17\nline2\tpinctrl-bcm2711 gpio\t4\n", "drivebusd.toml");
     ASSERT_TRUE(uses.has_value()) << uses.error().message;
-    ASSERT_EQ(uses->size(), 1U);
+    ASSERT_EQ(uses->size(), 2U);
     EXPECT_EQ(uses->front().bus, "line1");
     EXPECT_EQ(uses->front().chip, "gpiochip0");
     EXPECT_EQ(uses->front().line, 17);
-    const auto none = gpio_uses(read(std::string(EXAMPLES_DIR) + "/sim.toml"), "sim.toml");
+    EXPECT_EQ(uses->back().chip, "pinctrl-bcm2711 gpio");
+    EXPECT_EQ(uses->back().line, 4);
+
+    const auto none = gpio_uses("", "sim.toml");
     ASSERT_FALSE(none.has_value());
-    EXPECT_TRUE(has(none.error().message, "no bus has direction = \"gpio\"")) << none.error().message;
-    const auto broken = gpio_uses("[[bus]]\nname = \"x\"\ndirection = \"gpio\"\ngpio_chip = \"gpiochip1\"\n", "b.toml");
-    ASSERT_FALSE(broken.has_value());
-    EXPECT_TRUE(has(broken.error().message, "bus 'x'")) << broken.error().message;
-    EXPECT_FALSE(gpio_uses("[[bus]\n", "bad.toml").has_value());
+    EXPECT_EQ(none.error().message, "sim.toml: no bus has direction = \"gpio\": no GPIO chip to give");
+    for (const std::string_view wrong : {"line1 gpiochip0 17\n", "line1\tgpiochip0\n", "line1\tgpiochip0\t-1\n",
+                                         "line1\tgpiochip0\t17x\n", "\tgpiochip0\t17\n", "line1\t\t17\n"}) {
+        const auto refused = gpio_uses(wrong, "drivebusd.toml");
+        ASSERT_FALSE(refused.has_value()) << wrong;
+        EXPECT_EQ(refused.error().kind, RuleErrorKind::Usage);
+        EXPECT_TRUE(has(refused.error().message, "not BUS, CHIP and LINE apart by tabs")) << refused.error().message;
+    }
 }
 
 TEST(UdevRule, Helpers) {
