@@ -57,7 +57,9 @@ inline void quiesce(CallbackGate& gate) {
     const std::lock_guard lock(gate.mutex);
 }
 
-struct Bus::Impl {
+// Hidden: Bus is exported whole (client/libdrivebus.map, drivebus::Bus::*), its Impl never, and
+// that does not rest on a pattern that spells out which names of Bus to leave out.
+struct __attribute__((visibility("hidden"))) Bus::Impl {
     Impl(std::string bus, ConnectOptions connect_options);
     ~Impl();
     Impl(const Impl&) = delete;

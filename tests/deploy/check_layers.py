@@ -5,34 +5,87 @@
 Each library exports its own include directory, so a source file can include only the layers
 its target links. This check reads the build's compile_commands.json and fails when a source
 file of a layer is compiled with the include directory of a layer it must not see (a target
-that links too much): the master with the configuration; the libraries, the simulator, the
-gateway or the MQTT bridge (libdrivebus clients) with anything of drivebusd.
+that links too much): the master with the configuration; each library with the libraries above
+it; the simulator, the gateway or the MQTT bridge (libdrivebus clients) with anything of
+drivebusd or of each other.
+
+The public headers (include/drivebus/) are one directory, so which of them a layer includes
+is checked in its files (headers too): the shared-memory layout (drivebus/shm.hpp) is
+drivebusd's ipc's, its configuration's (the sizes a name must fit) and the clients', never the
+libraries', the master's, the bus thread's or the simulator's; libdrivebus's API
+(drivebus/client.hpp, drivebus/altivar.hpp) is for its clients only.
 
 usage: check_layers.py SOURCE_DIR compile_commands.json
 """
 import json
+import re
 import shlex
 import sys
 from pathlib import Path
 
 # A layer (the folder its sources are in) and the folders whose include directories it must
-# not be given.
+# not be given. The first rule whose folder holds the file applies.
 DAEMON = ["daemon/"]
+EDGES = ["client/", "sim/", "gateway/", "mqtt/"]
 RULES = [
-    ("lib/rtu/", ["lib/", "daemon/", "client/", "sim/", "include"]),
-    ("lib/", DAEMON + ["client/", "sim/"]),
+    ("lib/rtu/", ["lib/", "include"] + DAEMON + EDGES),
+    ("lib/duration/", ["lib/", "include"] + DAEMON + EDGES),
+    ("lib/settings/", ["lib/rtu/", "lib/profile/", "lib/sys/", "lib/log/", "lib/rt/", "lib/serial/", "include"]
+     + DAEMON + EDGES),
+    ("lib/profile/", ["lib/rtu/", "lib/duration/", "lib/sys/", "lib/log/", "lib/rt/", "lib/serial/"]
+     + DAEMON + EDGES),
+    ("lib/sys/", ["lib/duration/", "lib/settings/", "lib/profile/", "lib/log/", "lib/rt/", "lib/serial/",
+                  "include"] + DAEMON + EDGES),
+    ("lib/log/", ["lib/duration/", "lib/settings/", "lib/profile/", "lib/rt/", "lib/serial/", "include"]
+     + DAEMON + EDGES),
+    ("lib/rt/", ["lib/duration/", "lib/settings/", "lib/profile/", "lib/serial/", "include"] + DAEMON + EDGES),
+    ("lib/serial/", ["lib/duration/", "lib/settings/", "lib/profile/", "lib/log/", "lib/rt/", "include"]
+     + DAEMON + EDGES),
+    ("lib/", DAEMON + EDGES),
     ("daemon/master/", ["daemon/config/", "daemon/bus/", "daemon/ipc/", "daemon/ipc_core/",
-                        "lib/serial/", "lib/sys/", "lib/log/", "lib/rt/"]),
-    ("daemon/config/", ["daemon/bus/", "daemon/ipc/", "daemon/ipc_core/"]),
-    ("daemon/ipc_core/", ["daemon/bus/", "daemon/ipc/"]),
-    ("daemon/bus/", ["daemon/ipc/", "daemon/ipc_core/"]),
-    ("sim/", DAEMON + ["client/"]),
-    ("gateway/", DAEMON + ["sim/"]),
-    ("client/", DAEMON + ["sim/"]),
-    # The MQTT bridge is a client: libdrivebus's public headers, never drivebusd's layers or
-    # the library's insides.
-    ("mqtt/", DAEMON + ["client/", "sim/"]),
+                        "lib/serial/", "lib/sys/", "lib/log/", "lib/rt/", "lib/settings/"] + EDGES),
+    ("daemon/config/", ["daemon/bus/", "daemon/ipc/", "daemon/ipc_core/"] + EDGES),
+    ("daemon/ipc_core/", ["daemon/bus/", "daemon/ipc/"] + EDGES),
+    ("daemon/bus/", ["daemon/ipc/", "daemon/ipc_core/"] + EDGES),
+    ("daemon/", EDGES),
+    ("sim/", DAEMON + ["client/", "gateway/", "mqtt/"]),
+    # The gateway and the MQTT bridge are libdrivebus clients: its public headers, never
+    # drivebusd's layers, the library's insides or each other.
+    ("gateway/", DAEMON + ["client/", "sim/", "mqtt/"]),
+    ("client/", DAEMON + ["sim/", "gateway/", "mqtt/"]),
+    ("mqtt/", DAEMON + ["client/", "sim/", "gateway/"]),
 ]
+
+# Folders, the public headers none of their files may include, and why.
+SHM = "drivebus/shm.hpp"
+API = ["drivebus/client.hpp", "drivebus/altivar.hpp"]
+HEADER_RULES = [
+    (["lib/", "daemon/master/", "daemon/bus/", "sim/"], [SHM],
+     "the shared-memory layout is drivebusd's ipc's and its clients'"),
+    (["lib/", "daemon/", "sim/"], API, "libdrivebus's API is for its clients"),
+]
+INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
+
+
+def header_problems(source):
+    """Each file of a folder of HEADER_RULES that includes a header that folder may not."""
+    problems = []
+    checked = set()
+    for folders, headers, why in HEADER_RULES:
+        for folder in folders:
+            root = source / folder
+            if not root.is_dir():
+                continue
+            for path in sorted(root.rglob("*")):
+                if path.suffix not in (".cpp", ".hpp", ".h", ".c") or not path.is_file():
+                    continue
+                rel = path.relative_to(source).as_posix()
+                checked.add(rel)
+                for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
+                    m = INCLUDE.match(line)
+                    if m and m.group(1) in headers:
+                        problems.append(f"{rel}:{number}: includes {m.group(1)}, which {folder} must not: {why}")
+    return problems, len(checked)
 
 
 def include_dirs(entry):
@@ -74,12 +127,15 @@ def main():
             for forbidden in rule[1]:
                 if rel_dir.startswith(forbidden if forbidden.endswith("/") else forbidden + "/"):
                     problems.append(f"{rel}: compiled with {rel_dir}, which {rule[0]} must not see")
+    headers, files = header_problems(source)
+    problems += headers
     for p in problems:
         print(p)
     if checked == 0:
         print("no source file of any layer in the compile commands")
         return 1
-    print(f"{checked} source files checked, {len(problems)} problem(s)")
+    print(f"{checked} source files' include directories and {files} files' includes checked, "
+          f"{len(problems)} problem(s)")
     return 1 if problems else 0
 
 
