@@ -16,6 +16,7 @@
 #include "ipc/lease_policy.hpp"
 #include "ipc/lease_record_file.hpp"
 #include "ipc/lease_token.hpp"
+#include "ipc/note_log.hpp"
 #include "ipc/publisher.hpp"
 #include "ipc/service.hpp"
 #include "log/log.hpp"

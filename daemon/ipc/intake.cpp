@@ -10,6 +10,7 @@
 #include "iceoryx_posh/popo/listener.hpp"
 #include "iceoryx_posh/popo/untyped_server.hpp"
 #include "ipc/intake_core.hpp"
+#include "ipc/note_log.hpp"
 #include "ipc/service.hpp"
 #include "sys/event_fd.hpp"
 
@@ -44,7 +45,8 @@ struct Intake::Impl {
           server(port->server),
           core(
               b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); },
-              std::move(journal), [](const RequestHeader& route) { return ClientQueue::of(route); }) {
+              std::move(journal), [](const RequestHeader& route) { return ClientQueue::of(route); },
+              [](const Note& note) { write_note(note); }) {
         if (listener
                 .attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
                              iox::popo::createNotificationCallback(on_request, *this))

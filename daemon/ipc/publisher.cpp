@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "ipc/publisher.hpp"
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 
 #include "iceoryx_posh/popo/publisher.hpp"
@@ -64,7 +67,7 @@ std::optional<std::size_t> Publisher::drive_index(std::string_view name) const {
 
 bool Publisher::snapshot(std::size_t drive, const master::DriveSnapshot& s, const shm::LeaseStatus& lease) {
     const std::uint64_t sequence = last_[drive].sequence;
-    fill_snapshot(s, last_[drive]);
+    fill_snapshot(s, {.published_ns = monotonic_ns(std::chrono::steady_clock::now()), .daemon_pid = 0}, last_[drive]);
     last_[drive].sequence = sequence;
     last_[drive].lease = lease;
     publish(drive);
@@ -126,7 +129,8 @@ void Publisher::status(const master::BusStatus& bus, const IpcCounts& counts) {
         health.push_back(to_shm(h));
     }
     auto& out = *sample.value().get();
-    fill_status(bus_, bus, health, out);
+    fill_status(bus_, bus, health,
+                {.published_ns = monotonic_ns(std::chrono::steady_clock::now()), .daemon_pid = ::getpid()}, out);
     shm::assign(out.control_group, control_group_);
     for (std::size_t i = 0; i < last_.size() && i < out.drives.size(); ++i) {
         const auto& c = last_[i].comm_timeout;

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "ipc/convert.hpp"
 
-#include <unistd.h>
 #include <algorithm>
 #include <chrono>
 #include <limits>
@@ -61,19 +60,27 @@ shm::CommTimeout to_shm(const master::CommTimeoutNote& note) noexcept {
     return out;
 }
 
-void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noexcept {
+void fill_snapshot(const master::DriveSnapshot& in, const Publication& publication, shm::DriveSnapshot& out) noexcept {
     out.version = shm::kPayloadVersion;
     out.size = sizeof(shm::DriveSnapshot);
     out.sequence = in.sequence;
-    out.published_ns = monotonic_ns(std::chrono::steady_clock::now());
+    out.published_ns = publication.published_ns;
     shm::assign(out.bus, in.bus);
     shm::assign(out.name, in.name);
     shm::assign(out.profile, in.profile);
     out.address = in.address;
     out.health = to_shm(in.health);
     const auto& c = in.counters;
-    out.counters = {c.requests, c.replies,         c.timeouts,           c.bad_frames,
-                    c.retries,  sum(c.exceptions), c.absent_transitions, c.late};
+    // By name, every field: shm::DriveCounters gaining one fails the assertion until it is copied.
+    static_assert(sizeof(shm::DriveCounters) == 8 * sizeof(std::uint64_t), "copy every shm::DriveCounters field");
+    out.counters.requests = c.requests;
+    out.counters.replies = c.replies;
+    out.counters.timeouts = c.timeouts;
+    out.counters.bad_frames = c.bad_frames;
+    out.counters.retries = c.retries;
+    out.counters.exceptions = sum(c.exceptions);
+    out.counters.absent_transitions = c.absent_transitions;
+    out.counters.late = c.late;
     std::size_t n = 0;
     for (const auto& [address, v] : in.registers) {  // std::map: sorted by address
         if (n == out.registers.size()) {
@@ -87,12 +94,12 @@ void fill_snapshot(const master::DriveSnapshot& in, shm::DriveSnapshot& out) noe
 }
 
 void fill_status(const config::BusConfig& bus, const master::BusStatus& in, const std::vector<shm::DriveHealth>& health,
-                 shm::BusStatus& out) noexcept {
+                 const Publication& publication, shm::BusStatus& out) noexcept {
     out = shm::BusStatus{};
     out.size = sizeof(shm::BusStatus);
     out.sequence = in.sequence;
-    out.published_ns = monotonic_ns(std::chrono::steady_clock::now());
-    out.daemon_pid = ::getpid();
+    out.published_ns = publication.published_ns;
+    out.daemon_pid = publication.daemon_pid;
     out.baud = bus.format.baud;
     shm::assign(out.bus, bus.name);
     shm::assign(out.device, bus.device.string());

@@ -7,12 +7,6 @@
 
 namespace drivebus::ipc {
 
-void write_note(const std::optional<Note>& note, std::source_location where) {
-    if (note) {
-        log::write(note->level, note->text, {.drive = note->drive}, where);
-    }
-}
-
 LeasePolicy::LeasePolicy(const config::BusConfig& bus, TokenSource tokens)
     : bus_(bus), table_(bus, std::move(tokens)), pending_(bus.drives.size(), false), retry_(bus.drives.size()) {}
 

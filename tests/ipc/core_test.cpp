@@ -578,19 +578,34 @@ TEST(Convert, SnapshotCarriesValuesValidityAndTimesSorted) {
     in.profile = "atv21";
     in.health = master::Health::Online;
     in.sequence = 7;
+    // Each counter its own value: a copy by position would put one in another's place.
     in.counters.requests = 10;
+    in.counters.replies = 11;
+    in.counters.timeouts = 12;
+    in.counters.bad_frames = 13;
+    in.counters.retries = 14;
+    in.counters.absent_transitions = 15;
+    in.counters.late = 16;
     in.counters.exceptions[2] = 3;
     const rtu::Instant t{std::chrono::nanoseconds(123456789)};
     in.registers[0xFD01] = {0x6404, true, t};
     in.registers[0xFD00] = {3000, true, t};
     in.registers[0xFC91] = {0, false, {}};
     shm::DriveSnapshot out;
-    fill_snapshot(in, out);
+    fill_snapshot(in, {.published_ns = 987654321, .daemon_pid = 0}, out);
     EXPECT_TRUE(shm::compatible(out));
+    EXPECT_EQ(out.published_ns, 987654321);
     EXPECT_EQ(shm::view(out.name), "pump");
     EXPECT_EQ(shm::view(out.profile), "atv21");
     EXPECT_EQ(out.health, shm::DriveHealth::Online);
+    EXPECT_EQ(out.counters.requests, 10U);
+    EXPECT_EQ(out.counters.replies, 11U);
+    EXPECT_EQ(out.counters.timeouts, 12U);
+    EXPECT_EQ(out.counters.bad_frames, 13U);
+    EXPECT_EQ(out.counters.retries, 14U);
     EXPECT_EQ(out.counters.exceptions, 3U);
+    EXPECT_EQ(out.counters.absent_transitions, 15U);
+    EXPECT_EQ(out.counters.late, 16U);
     ASSERT_EQ(out.register_count, 3);
     EXPECT_EQ(out.registers[0].address, 0xFC91);
     EXPECT_EQ(out.registers[0].valid, 0);
@@ -650,8 +665,11 @@ TEST(Convert, BusStatusListsTheDrivesAndTheirHealth) {
     in.reply_latency.add(std::chrono::microseconds(10));
     in.reply_latency.add(std::chrono::microseconds(30));
     shm::BusStatus out;
-    fill_status(b, in, {shm::DriveHealth::Online, shm::DriveHealth::Absent}, out);
+    fill_status(b, in, {shm::DriveHealth::Online, shm::DriveHealth::Absent},
+                {.published_ns = 5'000'000'000, .daemon_pid = 4242}, out);
     EXPECT_TRUE(shm::compatible(out));
+    EXPECT_EQ(out.published_ns, 5'000'000'000);
+    EXPECT_EQ(out.daemon_pid, 4242);
     EXPECT_EQ(out.up, 1);
     EXPECT_EQ(shm::view(out.format), "8N1");
     EXPECT_EQ(out.drive_count, 2);
@@ -688,7 +706,7 @@ TEST(Convert, EveryBusCounterKeepsItsName) {
     c.exceptions[1] = 100;
     c.exceptions[4] = 20;
     shm::BusStatus out;
-    fill_status(bus(), in, {}, out);
+    fill_status(bus(), in, {}, {}, out);
     const auto& o = out.counters;
     EXPECT_EQ(o.transmissions, 1U);
     EXPECT_EQ(o.replies, 2U);

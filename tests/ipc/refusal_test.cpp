@@ -335,5 +335,29 @@ TEST(ARefusedRequest, ALeaseWaitsForItsWritesAnswerBeforeRunningOut) {
     }
 }
 
+// The intake logs nothing itself: a rejection is a note for its caller (drivebusd writes it to
+// the journal), with the request's client and the reason.
+TEST(IntakeNotes, ARejectedRequestIsANoteForTheCaller) {
+    const auto bus = pump_bus();
+    LeasePolicy leases{bus, [] { return shm::LeaseToken{1, 7}; }};
+    std::vector<Note> notes;
+    std::size_t submitted = 0;
+    IntakeCore<Route> intake{bus, leases, [&](const master::ClientRequest&) { return ++submitted, true; },
+                             {},  {},     [&](const Note& note) { notes.push_back(note); }};
+    Route route = 0;
+    const auto answer = intake.accept(write(1, 0x1234, {1}), route, true, t0);
+    ASSERT_TRUE(answer.has_value());
+    EXPECT_EQ(answer->status, shm::Status::Rejected);
+    EXPECT_EQ(submitted, 0U);
+    ASSERT_EQ(notes.size(), 1U);
+    EXPECT_EQ(notes[0].level, log::Level::Info);
+    EXPECT_TRUE(notes[0].text.starts_with("bus line1: request from client-1 rejected: ")) << notes[0].text;
+
+    // An accepted request is no note.
+    EXPECT_FALSE(intake.accept(write(2, 0xFA01, {500}), route, true, t0).has_value());
+    EXPECT_EQ(submitted, 1U);
+    EXPECT_EQ(notes.size(), 1U);
+}
+
 }  // namespace
 }  // namespace drivebus::ipc

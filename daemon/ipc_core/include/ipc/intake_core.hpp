@@ -4,7 +4,7 @@
 // bus, or answered at once; a result coming back from the bus frees its entry and becomes the
 // answer. Every request leaves through exactly one answer. `Route` is what the caller needs
 // to send that answer (an iceoryx request header); `Submit` hands a request to the bus and
-// returns false when it cannot take it. Pure but for the log.
+// returns false when it cannot take it. Pure: what is worth a log line leaves as a Note.
 #pragma once
 
 #include <fmt/format.h>
@@ -33,14 +33,17 @@ public:
     // The port a request's route answers to (Origin::port). Without one, the client's own id
     // stands for it (for callers that have no ports).
     using PortOf = std::function<std::uint64_t(const Route&)>;
+    // Where its notes go (a lease taken, renewed or refused; a rejected request); none: dropped.
+    using Notes = std::function<void(const Note&)>;
 
     IntakeCore(const config::BusConfig& bus, LeasePolicy& leases, Submit submit, Journal journal = {},
-               PortOf port_of = {})
+               PortOf port_of = {}, Notes notes = {})
         : bus_(bus),
           leases_(leases),
           submit_(std::move(submit)),
           journal_(std::move(journal)),
           port_of_(std::move(port_of)),
+          notes_(std::move(notes)),
           book_(bus.queue_limit) {}
 
     // A request from a client. Returns the answer to send now with `route`; nullopt: the
@@ -58,8 +61,12 @@ public:
         }
         auto admitted = admit(bus_, request);
         if (!admitted) {
-            log::info(
-                fmt::format("bus {}: request from {} rejected: {}", bus_.name, who.client_name, admitted.error().why));
+            if (notes_) {
+                notes_(Note{log::Level::Info,
+                            fmt::format("bus {}: request from {} rejected: {}", bus_.name, who.client_name,
+                                        admitted.error().why),
+                            {}});
+            }
             return answer(who, shm::Status::Rejected, admitted.error().reason, admitted.error().register_address);
         }
         who.drive = admitted->drive;
@@ -251,7 +258,9 @@ private:
     }
 
     void act(std::size_t drive, const LeaseAction& a) {
-        write_note(a.note);
+        if (a.note && notes_) {
+            notes_(*a.note);
+        }
         if (a.republish && drive != kBroadcast) {
             republish_.push_back(drive);
         }
@@ -262,6 +271,7 @@ private:
     Submit submit_;
     Journal journal_;
     PortOf port_of_;
+    Notes notes_;
     PendingBook<Route> book_;
     std::vector<std::size_t> republish_;
     std::uint64_t served_ = 0;

@@ -25,9 +25,6 @@ struct Note {
     std::string drive;  // the drive's name, for the journal's DRIVE= (the text names it too)
 };
 
-// Writes the line, if there is one.
-void write_note(const std::optional<Note>& note, std::source_location where = std::source_location::current());
-
 struct LeaseAction {
     shm::Status status = shm::Status::Ok;  // Ok: allowed (a write goes on; a renewal is answered Ok)
     Holder holder;                         // NotPermitted: who holds it (name and pid, never the token)
