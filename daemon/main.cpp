@@ -14,12 +14,12 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <iostream>
 #include <memory>
 #include <string>
 
 #include "bus/line_check.hpp"
+#include "cli/command_line.hpp"
 #include "config/config.hpp"
 #include "drivebus/version.hpp"
 #include "log/log.hpp"
@@ -32,7 +32,6 @@ using namespace drivebus;
 namespace {
 
 constexpr int kExitConfig = 78;
-constexpr int kExitUsage = 2;
 constexpr int kExitStartup = 1;
 
 // For drivebusctl udev-rule: each direction = "gpio" bus as "BUS<tab>CHIP<tab>LINE", as written.
@@ -55,7 +54,7 @@ int run_main(int argc, char** argv) {
     std::string line_bus;
     bool verbose = false;
     CLI::App app{"drivebusd: Modbus RTU master for drives on RS485 lines"};
-    app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
+    cli::add_version(app);
     app.add_option("--config", config_path, "configuration file (TOML)")->required();
     app.add_flag("--check-config", check_only, "validate the configuration and exit (0 valid, 78 not)");
     auto* line_flag = app.add_flag("--check-line", check_line,
@@ -68,15 +67,8 @@ int run_main(int argc, char** argv) {
         ->excludes(line_flag);
     app.add_option("--profile-dir", profile_dir, "directory with the drive profiles (TYPE.toml)");
     app.add_flag("--verbose,-v", verbose, "log debug messages");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::CallForVersion& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        std::cerr << "drivebusd: " << e.what() << " (see --help)\n";
-        return kExitUsage;
+    if (const auto exit = cli::parse(app, argc, argv, "drivebusd")) {
+        return *exit;
     }
     log::init("drivebusd", verbose ? log::Level::Debug : (check_line ? log::Level::Warning : log::Level::Info));
 

@@ -8,11 +8,11 @@
 #include <systemd/sd-daemon.h>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 
 #include <iostream>
 #include <system_error>
 
+#include "cli/command_line.hpp"
 #include "drivebus/version.hpp"
 #include "drivebus_backend.hpp"
 #include "gateway/config.hpp"
@@ -25,7 +25,6 @@ namespace {
 using namespace drivebus;
 using namespace drivebus::gateway;
 
-constexpr int kExitUsage = 2;
 constexpr int kExitStartup = 1;
 constexpr int kExitDaemonGone = 69;  // EX_UNAVAILABLE: systemd starts the gateway again
 constexpr int kExitConfig = 78;
@@ -88,19 +87,12 @@ int run_main(int argc, char** argv) {
     bool check_only = false;
     bool verbose = false;
     CLI::App app{"drivebus-gateway: Modbus TCP gateway to the drives drivebusd runs"};
-    app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
+    cli::add_version(app);
     app.add_option("--config", config_path, "configuration file (TOML)")->capture_default_str();
     app.add_flag("--check-config", check_only, "validate the configuration and exit (0 valid, 78 not)");
     app.add_flag("--verbose,-v", verbose, "log debug messages");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::CallForVersion& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        std::cerr << "drivebus-gateway: " << e.what() << " (see --help)\n";
-        return kExitUsage;
+    if (const auto exit = cli::parse(app, argc, argv, "drivebus-gateway")) {
+        return *exit;
     }
     log::init("drivebus-gateway", verbose ? log::Level::Debug : log::Level::Info);
     const auto config = load_config(config_path);

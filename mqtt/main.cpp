@@ -11,7 +11,6 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <array>
 #include <filesystem>
 #include <iostream>
@@ -22,6 +21,7 @@
 #include <vector>
 
 #include "bridge.hpp"
+#include "cli/command_line.hpp"
 #include "drivebus/version.hpp"
 #include "log/log.hpp"
 #include "mqtt/config.hpp"
@@ -32,7 +32,6 @@ using namespace drivebus;
 namespace {
 
 constexpr int kExitConfig = 78;
-constexpr int kExitUsage = 2;
 constexpr int kExitStartup = 1;
 
 // The password file and the TLS key, as mqtt::secret_problem() requires them; why not, else.
@@ -70,19 +69,12 @@ int run_main(int argc, char** argv) {
     bool check_only = false;
     bool verbose = false;
     CLI::App app{"drivebus-mqtt: drivebus drives on an MQTT broker"};
-    app.set_version_flag("--version", std::string(DRIVEBUS_VERSION_STRING));
+    cli::add_version(app);
     app.add_option("--config", config_path, "configuration file (TOML)");
     app.add_flag("--check-config", check_only, "validate the configuration and exit (0 valid, 78 not)");
     app.add_flag("--verbose,-v", verbose, "log debug messages");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::CallForVersion& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        std::cerr << "drivebus-mqtt: " << e.what() << " (see --help)\n";
-        return kExitUsage;
+    if (const auto exit = cli::parse(app, argc, argv, "drivebus-mqtt")) {
+        return *exit;
     }
     log::init("drivebus-mqtt", verbose ? log::Level::Debug : log::Level::Info);
     const auto config = mqtt::load_config(config_path, hostname());

@@ -18,6 +18,7 @@
 
 #include "arrival.hpp"
 #include "bus.hpp"
+#include "cli/command_line.hpp"
 #include "commands.hpp"
 #include "control.hpp"
 #include "event_log.hpp"
@@ -259,6 +260,7 @@ int run(const sim::Options& o) {
 int run_main(int argc, char** argv) {
     sim::Options o;
     CLI::App app{"drivebus-sim: simulated Altivar 21 and Altivar 58 drives on a serial line"};
+    cli::add_version(app);
     auto* link = app.add_option("--link", o.link, "make a pty and a symlink PATH to the side a master opens");
     auto* device = app.add_option("--device", o.device, "use this tty instead of a pty");
     link->excludes(device);
@@ -283,16 +285,13 @@ int run_main(int argc, char** argv) {
                    "write 'NS ADDRESS FUNCTION' to PATH for each request: when its first byte was read");
     app.add_option("--realtime", o.realtime, "run at this SCHED_FIFO priority (1-99) for tighter pacing")
         ->check(CLI::Range(1, 99));
-    try {
-        app.parse(argc, argv);
+    const auto exit = cli::parse(app, argc, argv, "drivebus-sim", [&] {
         if (o.link.empty() && o.device.empty()) {
             throw CLI::RequiredError("--link or --device");
         }
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        std::cerr << "drivebus-sim: " << e.what() << " (see --help)\n";
-        return kExitUsage;
+    });
+    if (exit) {
+        return *exit;
     }
     return run(o);
 }
