@@ -22,6 +22,7 @@
 #include "log/log.hpp"
 #include "sys/event_fd.hpp"
 #include "sys/event_loop.hpp"
+#include "sys/wake.hpp"
 
 namespace drivebus::ipc {
 namespace {
@@ -29,11 +30,30 @@ namespace {
 constexpr auto kStatusInterval = std::chrono::seconds(1);
 // How soon a change of the line (up, down) reaches the status.
 constexpr auto kStatusCheck = std::chrono::milliseconds(100);
+// The most applications woken on their own event loops (sys/wake.hpp); more poll on a timer.
+constexpr std::size_t kWakeConnections = 256;
+
+// The bus's wake-up socket, or none when it cannot be made (applications on their own event
+// loops then poll on a timer): the reason is logged.
+std::shared_ptr<sys::WakeServer> open_wakers(const config::BusConfig& bus, const Layout& layout) {
+    const auto path = sys::wake_socket_path(bus.name);
+    auto server = sys::WakeServer::listen(path, layout.grouped ? layout.segments.front().reader_group : std::string{},
+                                          kWakeConnections);
+    if (!server) {
+        log::warning(
+            fmt::format("bus {}: no wake-up socket at {} ({}): applications on their own event loops "
+                        "poll shared memory on a timer instead",
+                        bus.name, path, server.error().message()));
+        return nullptr;
+    }
+    return std::make_shared<sys::WakeServer>(std::move(*server));
+}
 
 }  // namespace
 
 struct BusService::Impl {
-    Impl(const config::BusConfig& b, const Layout& layout, bus::BusLoop& l, std::shared_ptr<Intake::Server> server)
+    Impl(const config::BusConfig& b, const Layout& layout, bus::BusLoop& l, std::shared_ptr<Intake::Server> server,
+         std::shared_ptr<sys::WakeServer> carried_wakers)
         : bus(b),
           loop(l),
           leases(b, random_tokens()),
@@ -42,7 +62,8 @@ struct BusService::Impl {
           intake(b, l, leases, std::move(server), [this] { record.keep(leases.record()); }),
           record(b),
           stop_fd("eventfd for bus " + b.name + "'s ipc thread"),
-          wind_fd("eventfd for bus " + b.name + "'s wind-down") {}
+          wind_fd("eventfd for bus " + b.name + "'s wind-down"),
+          wakers(carried_wakers ? std::move(carried_wakers) : open_wakers(b, layout)) {}
 
     const config::BusConfig& bus;
     bus::BusLoop& loop;
@@ -52,6 +73,7 @@ struct BusService::Impl {
     LeaseRecordFile record;
     sys::EventFd stop_fd;
     sys::EventFd wind_fd;
+    std::shared_ptr<sys::WakeServer> wakers;  // null: none could be made
     std::thread thread;
     bool winding = false;
     sys::EventFd wound_fd{"eventfd for the end of a wind-down"};  // every fallback answered
@@ -69,12 +91,14 @@ struct BusService::Impl {
         auto& handover = loop.handover();
         const std::array added = {events.add(intake.ready_fd(),
                                              [&] {
+                                                 const Woken woken(*this);
                                                  intake.take(sys::now());
                                                  republish();
                                                  keep_record();
                                              }),
                                   events.add(handover.ready_fd(),
                                              [&] {
+                                                 const Woken woken(*this);
                                                  handover.acknowledge();
                                                  drain();
                                                  republish();
@@ -82,15 +106,19 @@ struct BusService::Impl {
                                              }),
                                   events.add(timer.fd(),
                                              [&] {
+                                                 const Woken woken(*this);
                                                  timer.acknowledge();
                                                  tick(timer);
                                              }),
                                   events.add(wind_fd.fd(),
                                              [&] {
+                                                 const Woken woken(*this);
                                                  wind_fd.drain();
                                                  wind_down();
                                              }),
-                                  events.add(stop_fd.fd(), [&] { events.stop(); })};
+                                  events.add(stop_fd.fd(), [&] { events.stop(); }),
+                                  wakers ? events.add(wakers->fd(), [&] { wakers->accept_waiting(); })
+                                         : std::expected<void, sys::SysError>{}};
         for (const auto& a : added) {
             if (!a) {
                 log::error(
@@ -104,6 +132,24 @@ struct BusService::Impl {
             log::error(fmt::format("bus {}: ipc event loop: {}", bus.name, ran.error().message()));
         }
     }
+
+    // Wakes the applications on their own event loops once a callback of the ipc thread has
+    // published or answered anything (after it has: a wake-up announces what is there already).
+    struct Woken {
+        explicit Woken(Impl& i) : impl(i), before(i.activity()) {}
+        ~Woken() {
+            if (impl.wakers && impl.activity() != before) {
+                impl.wakers->wake();
+            }
+        }
+        Woken(const Woken&) = delete;
+        Woken& operator=(const Woken&) = delete;
+        Woken(Woken&&) = delete;
+        Woken& operator=(Woken&&) = delete;
+        Impl& impl;
+        std::uint64_t before;
+    };
+    [[nodiscard]] std::uint64_t activity() const noexcept { return publisher.publications() + intake.answers(); }
 
     // Results and snapshots the bus thread handed over.
     void drain() {
@@ -223,7 +269,7 @@ struct BusService::Impl {
 };
 
 BusService::BusService(const config::BusConfig& bus, const Layout& layout, bus::BusLoop& loop, const Carried& carried)
-    : impl_(std::make_unique<Impl>(bus, layout, loop, carried.server)) {
+    : impl_(std::make_unique<Impl>(bus, layout, loop, carried.server, carried.wakers)) {
     for (const auto& note : impl_->leases.adopt(carried.leases)) {
         write_note(note);
     }
@@ -247,7 +293,7 @@ Carried BusService::retire() {
     impl_->drain();
     impl_->intake.abandon();
     impl_->keep_record();
-    return {impl_->leases.carry(), impl_->publisher.sequences(), impl_->intake.release()};
+    return {impl_->leases.carry(), impl_->publisher.sequences(), impl_->intake.release(), impl_->wakers};
 }
 
 BusService::~BusService() {

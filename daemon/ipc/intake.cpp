@@ -76,7 +76,9 @@ struct Intake::Impl {
         }
         std::memcpy(loaned.value(), &response, sizeof response);
         (void)server.send(loaned.value());
+        ++answers;
     }
+    std::uint64_t answers = 0;
 
     bus::BusLoop& loop;
     sys::EventFd ready;
@@ -157,6 +159,10 @@ bool Intake::submit_own(std::size_t drive, const rtu::RequestAdu& write) {
 
 std::vector<std::size_t> Intake::take_republish() {
     return impl_->core.take_republish();
+}
+
+std::uint64_t Intake::answers() const noexcept {
+    return impl_->answers;
 }
 
 std::uint64_t Intake::served() const noexcept {

@@ -116,6 +116,7 @@ void Publisher::publish(std::size_t drive) {
     }
     std::memcpy(static_cast<void*>(sample.value().get()), &s, sizeof s);
     sample.value().publish();
+    ++publications_;
 }
 
 void Publisher::status(const master::BusStatus& bus, const IpcCounts& counts) {
@@ -142,6 +143,7 @@ void Publisher::status(const master::BusStatus& bus, const IpcCounts& counts) {
     out.counters.queue_rejections += counts.queue_full;  // the bus's own refusals, and the intake's
     out.counters.lease_expiries = counts.lease_expiries;
     sample.value().publish();
+    ++publications_;
 }
 
 namespace {

@@ -16,6 +16,7 @@
 #include "ipc/host.hpp"
 #include "ipc/intake.hpp"
 #include "ipc/lease_policy.hpp"
+#include "sys/wake.hpp"
 
 namespace drivebus::ipc {
 
@@ -27,6 +28,7 @@ struct Carried {
     std::vector<CarriedLease> leases;
     std::vector<std::pair<std::string, std::uint64_t>> sequences;  // each drive's last snapshot's
     std::shared_ptr<Intake::Server> server;                        // with the requests waiting in it
+    std::shared_ptr<sys::WakeServer> wakers;                       // with the applications connected to it
 };
 
 class BusService {

@@ -51,6 +51,8 @@ public:
     [[nodiscard]] std::vector<std::size_t> take_republish();
 
     [[nodiscard]] std::uint64_t served() const noexcept;
+    // Responses sent so far, of every kind.
+    [[nodiscard]] std::uint64_t answers() const noexcept;
     [[nodiscard]] std::uint64_t queue_full() const noexcept;
     [[nodiscard]] std::size_t in_flight() const noexcept;
 

@@ -49,6 +49,9 @@ public:
     [[nodiscard]] std::vector<std::pair<std::string, std::uint64_t>> sequences() const;
     void continue_sequences(const std::vector<std::pair<std::string, std::uint64_t>>& sequences);
 
+    // Samples published so far, snapshots and statuses.
+    [[nodiscard]] std::uint64_t publications() const noexcept { return publications_; }
+
     // Any thread (systemd's status line).
     [[nodiscard]] std::size_t drives_online() const noexcept { return online_.load(std::memory_order_relaxed); }
 
@@ -66,6 +69,7 @@ private:
     std::vector<master::Health> health_;
     std::vector<bool> comm_timeout_logged_;  // per drive: its time-out was logged
     std::atomic<std::size_t> online_{0};
+    std::uint64_t publications_ = 0;
     log::RateLimited absent_log_;
 };
 

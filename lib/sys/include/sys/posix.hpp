@@ -6,7 +6,8 @@
 //   - clean-ups whose failure changes nothing: unlinking our own lock or temporary file,
 //     EPOLL_CTL_DEL of a descriptor being closed, disarming a timer, emptying a timerfd that
 //     fired, TIOCNXCL and tcflush on a port being closed or drained;
-//   - writing to and draining an eventfd (sys::EventFd says why neither can fail usefully);
+//   - writing to and draining an eventfd (sys::EventFd says why neither can fail usefully), and
+//     sending and draining wake-ups (sys/wake.hpp), whose errors are read where they matter;
 //   - questions whose failure is the answer: kill(pid, 0) as a liveness probe (EPERM: alive),
 //     access() and stat() of a path to tell a user what is missing;
 //   - the terminal's own read and write in drivebusctl watch, which handle EINTR themselves;
