@@ -101,19 +101,26 @@ void response_arrived(iox::popo::UntypedClient* /*unused*/, CallbackGate* gate) 
 }  // namespace
 
 std::expected<void, Error> Bus::Impl::open() {
-    listener = std::make_unique<iox::popo::Listener>();
+    const bool threads = options.delivery == Delivery::Thread;
+    if (threads) {
+        listener = std::make_unique<iox::popo::Listener>();
+    } else if (auto made = open_descriptor(); !made) {
+        return std::unexpected(made.error());
+    }
     iox::popo::SubscriberOptions status_options;
     status_options.historyRequest = 1;
     status_options.queueCapacity = 4;
     status_subscriber = std::make_unique<iox::popo::Subscriber<shm::BusStatus>>(
         iox::capro::ServiceDescription{id(shm::kService), id(name), id(shm::kStatusEvent)}, status_options);
-    (void)listener->attachEvent(*status_subscriber, iox::popo::SubscriberEvent::DATA_RECEIVED,
-                                iox::popo::createNotificationCallback(status_arrived, *gate));
-    on_status_sample();  // a sample that came before the listener did
+    if (threads) {
+        (void)listener->attachEvent(*status_subscriber, iox::popo::SubscriberEvent::DATA_RECEIVED,
+                                    iox::popo::createNotificationCallback(status_arrived, *gate));
+        on_status_sample();  // a sample that came before the listener did
+    }
     shm::BusStatus first;
     {
         std::unique_lock lock(mutex);
-        changed.wait_for(lock, options.connect_timeout, [&] { return status.has_value(); });
+        wait(lock, Clock::now() + options.connect_timeout, [&] { return status.has_value(); });
         if (!status) {
             return std::unexpected(make_error(ErrorKind::NoSuchBus, "drivebusd does not announce bus '" + name +
                                                                         "' (drivebusctl list shows the buses)"));
@@ -146,9 +153,11 @@ std::expected<void, Error> Bus::Impl::open() {
             std::lock_guard lock(mutex);
             drives.push_back(std::move(feed));
         }
-        (void)listener->attachEvent(*raw->subscriber, iox::popo::SubscriberEvent::DATA_RECEIVED,
-                                    iox::popo::createNotificationCallback(snapshot_arrived, raw->context));
-        on_drive_sample(*raw);
+        if (threads) {
+            (void)listener->attachEvent(*raw->subscriber, iox::popo::SubscriberEvent::DATA_RECEIVED,
+                                        iox::popo::createNotificationCallback(snapshot_arrived, raw->context));
+            on_drive_sample(*raw);
+        }
     }
 
     if (may_request) {
@@ -156,16 +165,11 @@ std::expected<void, Error> Bus::Impl::open() {
         o.responseQueueCapacity = iox::popo::ClientChunkQueueData_t::MAX_CAPACITY;
         client = std::make_unique<iox::popo::UntypedClient>(
             iox::capro::ServiceDescription{id(shm::kService), id(name), id(shm::kRequestEvent)}, o);
+    }
+    if (may_request && threads) {
         (void)listener->attachEvent(*client, iox::popo::ClientEvent::RESPONSE_RECEIVED,
                                     iox::popo::createNotificationCallback(response_arrived, *gate));
-        auto hand_over = [port = client.get()](const shm::Request& r) {
-            auto loaned = port->loan(sizeof(shm::Request), alignof(shm::Request));
-            if (loaned.has_error()) {
-                return false;
-            }
-            std::memcpy(loaned.value(), &r, sizeof r);
-            return !port->send(loaned.value()).has_error();
-        };
+        auto hand_over = [port = client.get()](const shm::Request& r) { return send_request(*port, r); };
         sender = std::make_unique<Sender>(std::move(hand_over), [this](const shm::Request& r, bool sent) {
             if (r.kind == shm::RequestKind::Withdraw) {
                 return;  // its answer is the request's own
@@ -178,6 +182,8 @@ std::expected<void, Error> Bus::Impl::open() {
             }
             changed.notify_all();
         });
+    }
+    if (may_request) {
         const auto deadline = Clock::now() + options.connect_timeout;
         while (client->getConnectionState() != iox::ConnectionState::CONNECTED && Clock::now() < deadline) {
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -187,14 +193,20 @@ std::expected<void, Error> Bus::Impl::open() {
                 make_error(ErrorKind::NoSuchBus, "bus '" + name + "' takes no requests (its server did not answer)"));
         }
     }
+    opened = true;
+    if (!threads) {
+        settle_until = Clock::now() + options.connect_timeout;
+        arm_timer(Clock::now());  // polled until every port has connected
+    }
     return {};
 }
 
-void Bus::Impl::on_status_sample() {
+std::size_t Bus::Impl::on_status_sample() {
+    std::size_t ran = 0;
     for (;;) {
         auto sample = status_subscriber->take();
         if (sample.has_error()) {
-            return;
+            return ran;
         }
         if (!shm::compatible(*sample.value().get())) {
             continue;
@@ -212,14 +224,16 @@ void Bus::Impl::on_status_sample() {
         for (const auto& cb : callbacks) {
             cb(*sample.value().get());
         }
+        ran += callbacks.size();
     }
 }
 
-void Bus::Impl::on_drive_sample(DriveFeed& feed) {
+std::size_t Bus::Impl::on_drive_sample(DriveFeed& feed) {
+    std::size_t ran = 0;
     for (;;) {
         auto sample = feed.subscriber->take();
         if (sample.has_error()) {
-            return;
+            return ran;
         }
         const auto& s = *sample.value().get();
         if (!shm::compatible(s)) {
@@ -237,6 +251,7 @@ void Bus::Impl::on_drive_sample(DriveFeed& feed) {
         for (const auto& cb : callbacks) {
             cb(s);
         }
+        ran += callbacks.size();
     }
 }
 
@@ -291,42 +306,16 @@ void Bus::Impl::wait_for_answer(std::unique_lock<std::mutex>& lock, std::uint64_
 
 std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
     if (!client) {
-        std::string group;
-        {
-            std::lock_guard lock(mutex);  // the listener's thread writes the status
-            group = std::string(shm::view(status->control_group));
-        }
-        return std::unexpected(
-            make_error(ErrorKind::NotPermitted, "requests on bus '" + name + "' need membership of group " + group +
-                                                    " (usermod -aG " + group + " $USER); watching needs none"));
+        return std::unexpected(not_permitted());
     }
-    request.version = shm::kPayloadVersion;
-    request.size = sizeof(shm::Request);
-    if (request.client == 0) {
-        request.client = client_id;
+    if (options.delivery == Delivery::Dispatch) {
+        std::optional<std::expected<shm::Response, Error>> result;
+        submit(request, [&result](std::expected<shm::Response, Error> r) { result = std::move(r); });
+        std::unique_lock lock(mutex);
+        wait(lock, Clock::time_point::max(), [&] { return result.has_value(); });  // a time-out ends it
+        return std::move(*result);
     }
-    if (shm::view(request.client_name).empty()) {
-        shm::assign(request.client_name, client_name);
-    }
-    if (request.pid == 0) {
-        request.pid = static_cast<std::int32_t>(::getpid());
-    }
-    // Past this time the caller has given up: drivebusd drops the request rather than send it.
-    // A deadline of the caller's own that comes sooner stays, and its expiry is told apart.
-    const auto given_up = monotonic_ns(Clock::now() + options.request_timeout);
-    const bool own_deadline = request.deadline_ns != 0 && request.deadline_ns <= given_up;
-    if (!own_deadline && request.kind != shm::RequestKind::Withdraw) {
-        request.deadline_ns = given_up;
-    }
-    {
-        std::lock_guard lock(mutex);
-        if (request.lease_token == shm::LeaseToken{}) {
-            const auto it = lease_tokens.find(shm::view(request.drive));
-            request.lease_token = it != lease_tokens.end() ? it->second : latest_token;
-        }
-        request.correlation = next_correlation++;
-        waiting.emplace(request.correlation, Pending{});
-    }
+    const bool own_deadline = prepare(request);
     // The sender's thread hands it to iceoryx: whatever iceoryx waits on, this caller waits no
     // longer than its time-out (sender.hpp). Never with `mutex` held: Done takes it.
     const auto given_up_at = Clock::now() + options.request_timeout;
@@ -359,43 +348,10 @@ std::expected<shm::Response, Error> Bus::Impl::call(shm::Request request) {
         lock.unlock();
         sender->post(withdraw);
         lock.lock();
-        wait_for_answer(lock, request.correlation,
-                        Clock::now() + std::clamp(options.request_timeout, Milliseconds(200), Milliseconds(1000)));
+        wait_for_answer(lock, request.correlation, Clock::now() + withdrawal_wait(options.request_timeout));
         answered = waiting.at(request.correlation).response.has_value();
     }
-    auto response = waiting.at(request.correlation).response;
-    const auto handed = waiting.at(request.correlation).handed;
-    waiting.erase(request.correlation);
-    if (response && response->status == shm::Status::Rejected && response->reason == shm::RejectReason::NotPending) {
-        response.reset();  // drivebusd holds no such request: its answer was lost, or it never came
-        answered = false;
-    }
-    if (response && response->status == shm::Status::Expired && !own_deadline) {
-        response->status = shm::Status::Withdrawn;  // dropped at this library's time-out, not the caller's deadline
-    }
-    if (response && response->lease_ms > 0 && response->lease_token != shm::LeaseToken{}) {
-        // This request took a lease: its token from now on.
-        lease_tokens[std::string(shm::view(request.drive))] = response->lease_token;
-        latest_token = response->lease_token;
-    }
-    if (!answered && handed == Handed::Not) {
-        return std::unexpected(make_error(
-            ErrorKind::NoReply, "iceoryx has not let the request go within " +
-                                    std::to_string(options.request_timeout.count()) +
-                                    " ms (a client killed while sending may hold its lock): the outcome is unknown "
-                                    "(read the register back)"));
-    }
-    if (!answered || !response) {
-        const bool gone = !(status.has_value() && Clock::now() - status_time < options.daemon_silence);
-        return std::unexpected(
-            gone ? make_error(ErrorKind::DaemonGone, "drivebusd has gone silent (no bus status for " +
-                                                         std::to_string(options.daemon_silence.count()) + " ms)")
-                 : make_error(ErrorKind::NoReply, "drivebusd did not answer within " +
-                                                      std::to_string(options.request_timeout.count()) +
-                                                      " ms, nor its withdrawal: the outcome is "
-                                                      "unknown (read the register back)"));
-    }
-    return *response;
+    return conclude(request, own_deadline, answered);
 }
 
 }  // namespace drivebus

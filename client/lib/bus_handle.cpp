@@ -52,7 +52,7 @@ const std::string& Bus::name() const noexcept {
 
 std::expected<shm::BusStatus, Error> Bus::status(Milliseconds wait) const {
     std::unique_lock lock(impl_->mutex);
-    impl_->changed.wait_for(lock, wait, [&] { return impl_->status.has_value(); });
+    impl_->wait(lock, deadline_after(wait), [&] { return impl_->status.has_value(); });
     if (!impl_->status) {
         return std::unexpected(make_error(ErrorKind::DaemonGone, "no status from bus '" + impl_->name + "'"));
     }
@@ -89,6 +89,23 @@ Subscription Bus::on_status(std::function<void(const shm::BusStatus&)> callback)
 
 std::expected<shm::Response, Error> Bus::request(shm::Request request) const {
     return impl_->call(request);
+}
+
+void Bus::async_request(shm::Request request, ResponseDone done) const {
+    if (impl_->options.delivery != Delivery::Dispatch) {
+        done(std::unexpected(make_error(ErrorKind::InvalidArgument,
+                                        "asynchronous requests need a Bus connected with Delivery::Dispatch")));
+        return;
+    }
+    impl_->submit(request, std::move(done));
+}
+
+int Bus::descriptor() const noexcept {
+    return impl_->options.delivery == Delivery::Dispatch ? impl_->epoll.get() : -1;
+}
+
+std::size_t Bus::dispatch() const {
+    return impl_->options.delivery == Delivery::Dispatch ? impl_->dispatch() : 0;
 }
 
 std::expected<Drive, Error> Bus::drive(std::string_view which) const {

@@ -4,8 +4,10 @@
 // renews a lease on its own: only the application's writes and keep_alive() calls do.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <deque>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -17,6 +19,7 @@
 #include "iceoryx_posh/popo/subscriber.hpp"
 #include "iceoryx_posh/popo/untyped_client.hpp"
 #include "sender.hpp"
+#include "sys/posix.hpp"
 
 namespace drivebus {
 
@@ -69,14 +72,34 @@ struct __attribute__((visibility("hidden"))) Bus::Impl {
 
     std::expected<void, Error> open();  // ports, first status, drives
     std::expected<shm::Response, Error> call(shm::Request request);
+    // A request's own fields (version, client, deadline, lease token, correlation), and its
+    // place among those waiting: whether its deadline is the caller's own (exchange.cpp).
+    bool prepare(shm::Request& request);
+    // What a request came to, answered or given up; takes it off those waiting. `mutex` held.
+    std::expected<shm::Response, Error> conclude(const shm::Request& request, bool own_deadline, bool answered);
+    [[nodiscard]] Error not_permitted() const;
+    // Waits, `lock` holding `mutex`, until `done()` or `deadline`: on the condition variable
+    // (Delivery::Thread) or dispatching meanwhile (Delivery::Dispatch).
+    template <typename Pred>
+    bool wait(std::unique_lock<std::mutex>& lock, Clock::time_point deadline, Pred done);
+
+    // Delivery::Dispatch (dispatch.cpp).
+    std::expected<void, Error> open_descriptor();
+    void submit(shm::Request request, Bus::ResponseDone done);
+    std::size_t dispatch();
+    // Until the descriptor is readable or `deadline`.
+    void wait_readable(Clock::time_point deadline) const;
+    // Runs `f` in the next dispatch().
+    void post(std::function<void()> f);
     // Waits, up to `deadline`, for a request's answer or the sender's word that iceoryx refused
     // it; `lock` holds `mutex`.
     void wait_for_answer(std::unique_lock<std::mutex>& lock, std::uint64_t correlation, Clock::time_point deadline);
     [[nodiscard]] bool alive() const;
     [[nodiscard]] DriveFeed* feed(std::string_view name);
 
-    void on_status_sample();
-    void on_drive_sample(DriveFeed& feed);
+    // Each returns how many callbacks it ran.
+    std::size_t on_status_sample();
+    std::size_t on_drive_sample(DriveFeed& feed);
     void on_response();
 
     std::string name;
@@ -98,6 +121,12 @@ struct __attribute__((visibility("hidden"))) Bus::Impl {
     struct Pending {
         Handed handed = Handed::Not;
         std::optional<shm::Response> response;
+        // Delivery::Dispatch: its completion, and what giving it up takes.
+        Bus::ResponseDone done;
+        shm::Request request{};
+        bool own_deadline = false;
+        bool withdrawing = false;     // given up: its withdrawal sent
+        Clock::time_point give_up{};  // then: when the withdrawal is given up too
     };
     std::unordered_map<std::uint64_t, Pending> waiting;  // by correlation
     std::uint64_t next_correlation = 1;
@@ -114,7 +143,50 @@ struct __attribute__((visibility("hidden"))) Bus::Impl {
     std::unique_ptr<Sender> sender;
     std::unique_ptr<iox::popo::Listener> listener;
     std::unique_ptr<CallbackGate> gate = std::make_unique<CallbackGate>();
+
+    // Delivery::Dispatch: the descriptor (an epoll set of the three below), a timer for the
+    // requests' time-outs and for polling while there are no wake-ups, an eventfd for what is
+    // ready at once, and the connection to drivebusd's wake-up socket (sys/wake.hpp).
+    sys::UniqueFd epoll;
+    sys::UniqueFd timer;
+    sys::UniqueFd local;
+    sys::UniqueFd wake;
+    Clock::time_point next_wake_attempt{};
+    Clock::time_point settle_until{};  // until every port is connected: polled
+    bool opened = false;               // open() has made every port
+    std::deque<std::function<void()>> ready;
+
+private:
+    void try_wake_connect(Clock::time_point now);
+    [[nodiscard]] bool settled() const;
+    void arm_timer(Clock::time_point now);
 };
+
+template <typename Pred>
+bool Bus::Impl::wait(std::unique_lock<std::mutex>& lock, Clock::time_point deadline, Pred done) {
+    if (options.delivery == Delivery::Thread) {
+        return changed.wait_until(lock, deadline, done);
+    }
+    for (;;) {
+        if (done()) {
+            return true;
+        }
+        if (Clock::now() >= deadline) {
+            return false;
+        }
+        lock.unlock();
+        wait_readable(deadline);
+        dispatch();
+        lock.lock();
+    }
+}
+
+// `wait` from now, saturated (a caller's Milliseconds::max() waits for ever).
+inline Clock::time_point deadline_after(Milliseconds wait) {
+    const auto now = Clock::now();
+    return wait >= std::chrono::duration_cast<Milliseconds>(Clock::time_point::max() - now) ? Clock::time_point::max()
+                                                                                            : now + wait;
+}
 
 // Process-wide: the iceoryx runtime, started once with a name unique to this process
 // (runtime.cpp).
@@ -127,6 +199,12 @@ iox::capro::IdString_t id(std::string_view text);
 Error make_error(ErrorKind kind, std::string message);
 // A response as an error, when it is one; `what` names the target ("drive pump"), `profile`
 // (the drive's, when there is one) explains the register a rejection names.
+// How long a withdrawal is waited for, once a request has been given up.
+inline Milliseconds withdrawal_wait(Milliseconds request_timeout) {
+    return std::clamp(request_timeout, Milliseconds(200), Milliseconds(1000));
+}
+// Hands a request to iceoryx (loan, copy, send) on this thread: false when iceoryx refused it.
+bool send_request(iox::popo::UntypedClient& port, const shm::Request& request);
 std::expected<void, Error> check_response(const std::string& what, const shm::Response& response,
                                           const Profile* profile = nullptr);
 // A rejection's reason and register, in words.

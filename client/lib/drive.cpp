@@ -66,7 +66,7 @@ std::expected<std::uint16_t, Error> Drive::resolve(std::string_view reg) const {
 std::expected<shm::DriveSnapshot, Error> Drive::wait_snapshot(Milliseconds wait, std::uint64_t after) const {
     auto* feed = bus_->feed(name_);
     std::unique_lock lock(bus_->mutex);
-    bus_->changed.wait_for(lock, wait, [&] { return feed->last && feed->last->sequence > after; });
+    bus_->wait(lock, deadline_after(wait), [&] { return feed->last && feed->last->sequence > after; });
     if (feed->last && feed->last->sequence > after) {
         return *feed->last;
     }
@@ -186,6 +186,82 @@ std::expected<void, Error> Drive::release_control() const {
         return std::unexpected(response.error());
     }
     return check_response("drive '" + name_ + "'", *response, profile_.get());
+}
+
+namespace {
+
+// A request of this drive's, by callback: `then` turns its response into what `done` takes.
+template <typename Done, typename Then>
+void submit_async(Bus::Impl& bus, const shm::Request& r, Done done, Then then) {
+    if (bus.options.delivery != Delivery::Dispatch) {
+        done(std::unexpected(make_error(ErrorKind::InvalidArgument,
+                                        "asynchronous requests need a Bus connected with Delivery::Dispatch")));
+        return;
+    }
+    bus.submit(r, [done = std::move(done), then = std::move(then)](std::expected<shm::Response, Error> response) {
+        if (!response) {
+            done(std::unexpected(response.error()));
+            return;
+        }
+        done(then(*response));
+    });
+}
+
+shm::Request drive_request(shm::RequestKind kind, const std::string& drive) {
+    shm::Request r;
+    r.kind = kind;
+    shm::assign(r.drive, drive);
+    return r;
+}
+
+}  // namespace
+
+void Drive::async_read(std::uint16_t address, std::uint16_t count, ReadDone done) const {
+    auto r = drive_request(shm::RequestKind::Read, name_);
+    r.start = address;
+    r.count = count;
+    submit_async(
+        *bus_, r, std::move(done),
+        [name = name_,
+         profile = profile_](const shm::Response& response) -> std::expected<std::vector<std::uint16_t>, Error> {
+            if (auto ok = check_response("drive '" + name + "'", response, profile.get()); !ok) {
+                return std::unexpected(ok.error());
+            }
+            return std::vector<std::uint16_t>(response.values.begin(), response.values.begin() + response.count);
+        });
+}
+
+void Drive::async_write(std::uint16_t address, std::span<const std::uint16_t> values, Done done,
+                        WriteOptions options) const {
+    if (values.empty() || values.size() > shm::kMaxWriteWords) {
+        done(std::unexpected(make_error(ErrorKind::InvalidArgument, "a write carries 1-123 words")));
+        return;
+    }
+    auto r = drive_request(shm::RequestKind::Write, name_);
+    r.flags = options.take_over ? shm::kFlagTakeOver : 0;
+    r.start = address;
+    r.count = static_cast<std::uint16_t>(values.size());
+    std::ranges::copy(values, r.values.begin());
+    if (options.deadline) {
+        r.deadline_ns = monotonic_ns(Clock::now() + *options.deadline);
+    }
+    submit_async(*bus_, r, std::move(done), [name = name_, profile = profile_](const shm::Response& response) {
+        return check_response("drive '" + name + "'", response, profile.get());
+    });
+}
+
+void Drive::async_keep_alive(Done done) const {
+    submit_async(*bus_, drive_request(shm::RequestKind::LeaseRenew, name_), std::move(done),
+                 [name = name_, profile = profile_](const shm::Response& response) {
+                     return check_response("drive '" + name + "'", response, profile.get());
+                 });
+}
+
+void Drive::async_release_control(Done done) const {
+    submit_async(*bus_, drive_request(shm::RequestKind::LeaseRelease, name_), std::move(done),
+                 [name = name_, profile = profile_](const shm::Response& response) {
+                     return check_response("drive '" + name + "'", response, profile.get());
+                 });
 }
 
 bool Drive::holds_control() const {

@@ -13,6 +13,11 @@
 //
 // Everything returns std::expected: nothing here throws. A Bus is safe to use from several
 // threads; callbacks run on the library's own thread and must not block.
+//
+// An application with its own event loop connects with Delivery::Dispatch instead: the library
+// then starts no thread, the loop watches bus.descriptor() and calls bus.dispatch() when it is
+// readable, and every callback (snapshots, statuses, the async_ requests' completions) runs in
+// dispatch(), on the loop's thread (examples/app/poll_loop.cpp).
 #pragma once
 
 #include <chrono>
@@ -83,6 +88,18 @@ struct Error {
     std::int32_t lease_holder_pid = 0;
 };
 
+// Where a Bus's callbacks run, and who waits for what arrives.
+enum class Delivery : std::uint8_t {
+    // On the library's own threads (a listener and a sender): callbacks run there, and blocking
+    // calls wait for them.
+    Thread,
+    // On the caller's thread, in Bus::dispatch(), which the application calls whenever
+    // Bus::descriptor() is readable: the library starts no thread. Such a Bus belongs to the
+    // thread of that loop. Its blocking calls (read(), write(), wait_snapshot(), ...) dispatch
+    // while they wait, so other callbacks may run inside them.
+    Dispatch,
+};
+
 struct ConnectOptions {
     std::string application = "drivebus-client";  // shown in drivebusd's logs
     // How long a request may take (queueing and retries included). Past it the request is
@@ -96,6 +113,7 @@ struct ConnectOptions {
     Milliseconds connect_timeout{2000};
     // Where drive profiles are found (register names, units, fault names); default search path.
     std::optional<std::filesystem::path> profile_dir;
+    Delivery delivery = Delivery::Thread;
 };
 
 struct Identity {
@@ -174,6 +192,22 @@ public:
     // caller left them zero (lease_token: the one this Bus holds for that drive), waits for the
     // response. A response that took a lease gives this Bus its token.
     [[nodiscard]] std::expected<shm::Response, Error> request(shm::Request request) const;
+    // Delivery::Dispatch: sends the request as request() does and returns at once; `done` runs
+    // in a later dispatch() with what request() would have returned, exactly once, unless the
+    // Bus (with every Drive of it) is destroyed first: its pending completions are then
+    // destroyed uncalled. Delivery::Thread: `done` runs at once with InvalidArgument.
+    using ResponseDone = std::function<void(std::expected<shm::Response, Error>)>;
+    void async_request(shm::Request request, ResponseDone done) const;
+
+    // Delivery::Dispatch: the descriptor an event loop watches for reading (poll, epoll, an
+    // asio or Qt socket notifier, asyncio's add_reader); when it is readable, call dispatch().
+    // -1 with Delivery::Thread.
+    [[nodiscard]] int descriptor() const noexcept;
+    // Delivery::Dispatch: takes what has arrived and runs the callbacks it is for, on this
+    // thread; gives up the requests whose time has passed (their completions run too). Never
+    // waits. Returns how many callbacks ran. With Delivery::Thread: nothing, 0.
+    std::size_t dispatch() const;
+
     // A write to every drive (address 0): no reply, the bus waits the turnaround.
     [[nodiscard]] std::expected<void, Error> broadcast(std::uint16_t address,
                                                        std::span<const std::uint16_t> values) const;
@@ -219,6 +253,16 @@ public:
     [[nodiscard]] std::expected<void, Error> write(std::string_view reg, std::span<const std::uint16_t> values,
                                                    WriteOptions options = {}) const;
     [[nodiscard]] std::expected<Identity, Error> identify() const;
+
+    // The same, completed by callback in a later Bus::dispatch() (Delivery::Dispatch; see
+    // Bus::async_request for Delivery::Thread).
+    using ReadDone = std::function<void(std::expected<std::vector<std::uint16_t>, Error>)>;
+    using Done = std::function<void(std::expected<void, Error>)>;
+    void async_read(std::uint16_t address, std::uint16_t count, ReadDone done) const;
+    void async_write(std::uint16_t address, std::span<const std::uint16_t> values, Done done,
+                     WriteOptions options = {}) const;
+    void async_keep_alive(Done done) const;
+    void async_release_control(Done done) const;
 
     // The control lease lives only as long as the application shows it is alive: each write to
     // the drive's command or reference renews it, and so does keep_alive(). Nothing else does:

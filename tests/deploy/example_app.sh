@@ -10,6 +10,7 @@ cmake --install "$build" --prefix "$scratch/root" >/dev/null
 cmake -S "$source/examples/app" -B "$scratch/app" -DCMAKE_PREFIX_PATH="$scratch/root" >/dev/null
 cmake --build "$scratch/app" >/dev/null
 test -x "$scratch/app/pump_control"
+test -x "$scratch/app/poll_loop"
 pc=$(find "$scratch/root" -name drivebus.pc)
 flags=$(PKG_CONFIG_PATH=$(dirname "$pc") pkg-config --cflags --libs drivebus)
 case "$flags" in

@@ -41,6 +41,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -110,6 +111,13 @@ int main(int argc, char** argv) {
     const std::string mode = argv[2];
     drivebus::ConnectOptions options;
     options.application = "test_client_" + mode;
+    // DRIVEBUS_TEST_DELIVERY=dispatch: the blocking calls on a Bus run by dispatch() (modes
+    // snapshots, read, writes).
+    // NOLINTNEXTLINE(concurrency-mt-unsafe): read before any thread
+    if (const char* delivery = std::getenv("DRIVEBUS_TEST_DELIVERY");
+        delivery != nullptr && std::string_view(delivery) == "dispatch") {
+        options.delivery = drivebus::Delivery::Dispatch;
+    }
     auto bus = drivebus::Bus::connect(argv[1], options);
     if (!bus) {
         return fail(bus.error());
