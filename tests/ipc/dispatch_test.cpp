@@ -129,9 +129,15 @@ TEST(Dispatch, AClientWhoseDaemonIsGoneIsNotLeftWaiting) {
     DispatchClient follower({stack.bus(), "snapshots", "1000000"});
     ASSERT_TRUE(follower.printed("snapshot ", 20s)) << follower.output();
     stack.kill_daemon();
-    // The library's snapshots() loop waits on until the library says drivebusd is gone.
-    ASSERT_EQ(follower.wait(20s), 1) << follower.output();
-    EXPECT_NE(follower.output().find("gone silent"), std::string::npos) << follower.output();
+    // The library's wait_snapshot() loop waits on until the library says drivebusd is gone; or
+    // iceoryx 2.0 itself ends the client (SIGABRT from its keep-alive once RouDi's socket
+    // refuses it: docs/ipc.md). It never hangs, and what the library keeps of a RouDi gone is
+    // no leak (the sanitizer build checks leaks at exit).
+    const int status = follower.wait(20s);
+    ASSERT_TRUE(status == 1 || status == 128 + SIGABRT) << status << "\n" << follower.output();
+    if (status == 1) {
+        EXPECT_NE(follower.output().find("gone silent"), std::string::npos) << follower.output();
+    }
 }
 
 }  // namespace
