@@ -53,10 +53,11 @@ TEST(Dispatch, AnApplicationOnItsOwnPollLoopReadsWritesAndFollowsSnapshots) {
     EXPECT_NE(out.find("write FA01 3000 ok"), std::string::npos) << out;
     EXPECT_NE(out.find("release ok"), std::string::npos) << out;
     EXPECT_EQ(stack.sim_register(1, "FA01"), 3000) << "the write did not reach the drive\n" << out;
-    // Two seconds of 50 ms polls, and a read every 100 ms of the loop's own timer.
-    EXPECT_GE(summary_value(out, "snapshots"), 20) << out;
+    // Two seconds of 50 ms polls (about 40 snapshots), and a read and a renewal every 100 ms
+    // of the loop's own timer (about 20 each): a quarter of that on a loaded machine.
+    EXPECT_GE(summary_value(out, "snapshots"), 10) << out;
     EXPECT_EQ(summary_value(out, "out-of-order"), 0) << out;
-    EXPECT_GE(summary_value(out, "reads"), 10) << out;
+    EXPECT_GE(summary_value(out, "reads"), 5) << out;
     EXPECT_GE(summary_value(out, "renewals"), 5) << out;
     EXPECT_EQ(summary_value(out, "failures"), 0) << out;
     // Its threads: its own and the iceoryx runtime's keep-alive; none of libdrivebus's (a
