@@ -43,6 +43,7 @@ std::expected<std::unique_ptr<DrivebusBackend>, Error> DrivebusBackend::connect(
     ConnectOptions options;
     options.application = "drivebus-gateway";
     options.request_timeout = config.request_timeout;
+    options.delivery = Delivery::Dispatch;  // on the server's loop: no thread of the library's
     std::string default_bus = config.bus;
     const bool every_unit_names_its_bus =
         !config.units.empty() &&
@@ -117,12 +118,27 @@ std::optional<shm::DriveSnapshot> DrivebusBackend::snapshot(std::uint8_t unit) c
     return *snap;
 }
 
-std::expected<shm::Response, Error> DrivebusBackend::request(std::uint8_t unit, const shm::Request& request) {
+void DrivebusBackend::submit(std::uint8_t unit, const shm::Request& request, Done done) {
     const auto& u = units_[unit];
-    if (!u) {
-        return std::unexpected(error(ErrorKind::NoSuchBus, fmt::format("no drive at unit {}", unit)));
+    if (!u) {  // the server routes only units that route() knows
+        done(std::unexpected(error(ErrorKind::NoSuchBus, fmt::format("no drive at unit {}", unit))));
+        return;
     }
-    return u->bus->request(request);
+    u->bus->async_request(request, std::move(done));
+}
+
+std::vector<int> DrivebusBackend::descriptors() const {
+    std::vector<int> fds;
+    for (const auto& [name, bus] : buses_) {
+        fds.push_back(bus->descriptor());
+    }
+    return fds;
+}
+
+void DrivebusBackend::dispatch() {
+    for (const auto& [name, bus] : buses_) {
+        bus->dispatch();  // never waits: a bus with nothing new returns at once
+    }
 }
 
 bool DrivebusBackend::alive() const {

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// The gateway's Backend on libdrivebus: one Bus per bus the units reach, the unit ids resolved
-// to drives once at start.
+// The gateway's Backend on libdrivebus: one Bus per bus the units reach, each on the server's
+// event loop (Delivery::Dispatch), the unit ids resolved to drives once at start.
 #pragma once
 
 #include <array>
@@ -23,7 +23,10 @@ public:
 
     [[nodiscard]] const Route* route(std::uint8_t unit) const override;
     [[nodiscard]] std::optional<shm::DriveSnapshot> snapshot(std::uint8_t unit) const override;
-    [[nodiscard]] std::expected<shm::Response, Error> request(std::uint8_t unit, const shm::Request& request) override;
+    void submit(std::uint8_t unit, const shm::Request& request, Done done) override;
+    // Each bus's descriptor (its Bus runs on Delivery::Dispatch, with no thread of its own).
+    [[nodiscard]] std::vector<int> descriptors() const override;
+    void dispatch() override;
     // Whether drivebusd still publishes every bus's status.
     [[nodiscard]] bool alive() const;
     // "unit 1 line1/pump, unit 2 line1/fan".

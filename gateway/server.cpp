@@ -140,27 +140,15 @@ Server::Server(Config config, Backend& backend) : config_(std::move(config)), ba
         }
     };
     check(loop_.add(listener_.get(), [this] { accept_all(); }), "epoll: the listening socket");
-    check(loop_.add(wake_.fd(), [this] { on_done(); }), "epoll: the workers' eventfd");
+    for (const int fd : backend_.descriptors()) {
+        check(loop_.add(fd, [this] { backend_.dispatch(); }), "epoll: drivebusd's descriptor");
+    }
     check(loop_.add(stop_.fd(), [this] { loop_.stop(); }), "epoll: the stop eventfd");
     check(loop_.add(tick_.fd(), [this] { on_tick(); }), "epoll: the idle timer");
     check(tick_.arm(sys::now() + kTick), "timerfd");
-    workers_.reserve(config_.workers);
-    for (std::size_t i = 0; i < config_.workers; ++i) {
-        workers_.emplace_back([this] { work(); });
-    }
 }
 
-Server::~Server() {
-    {
-        std::lock_guard lock(mutex_);
-        stopping_ = true;
-        jobs_.clear();
-    }
-    work_ready_.notify_all();
-    for (auto& w : workers_) {
-        w.join();
-    }
-}
+Server::~Server() = default;
 
 void Server::run() {
     if (auto ok = loop_.run(); !ok) {
@@ -336,46 +324,39 @@ void Server::take(Connection& c, const Adu& adu) {
     job.request.lease_token = token != c.tokens.end() ? token->second : c.none;
     shm::assign(job.request.client_name, c.name);
     c.busy = true;
-    {
-        std::lock_guard lock(mutex_);
-        ++stats_.sent;
-        jobs_.push_back(std::move(job));
-    }
-    work_ready_.notify_one();
-}
-
-void Server::work() {
-    for (;;) {
-        Job job;
-        {
-            std::unique_lock lock(mutex_);
-            work_ready_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
-            if (stopping_) {
-                return;
-            }
-            job = std::move(jobs_.front());
-            jobs_.pop_front();
-        }
-        auto result = backend_.request(job.unit, job.request);
-        {
-            std::lock_guard lock(mutex_);
-            done_.push_back(Done{std::move(job), std::move(result)});
-        }
-        wake_.signal();
+    if (in_flight_ < config_.workers) {
+        send(std::move(job));
+    } else {
+        turns_.push_back(std::move(job));  // its turn comes when one under way is answered
+        set_waiting();
     }
 }
 
-void Server::on_done() {
-    wake_.drain();
-    std::vector<Done> done;
-    {
-        std::lock_guard lock(mutex_);
-        done.swap(done_);
+void Server::send(Job job) {
+    ++in_flight_;
+    bump(&Stats::sent);
+    const std::uint8_t unit = job.unit;
+    const shm::Request request = job.request;
+    backend_.submit(unit, request, [this, job = std::move(job)](std::expected<shm::Response, Error> result) {
+        on_done(Done{job, std::move(result)});
+    });
+}
+
+void Server::on_done(Done d) {
+    --in_flight_;
+    // The connections waiting their turn first, in the order they came.
+    while (in_flight_ < config_.workers && !turns_.empty()) {
+        Job next = std::move(turns_.front());
+        turns_.pop_front();
+        if (connections_.contains(next.connection)) {
+            send(std::move(next));
+        }
     }
-    for (auto& d : done) {
+    set_waiting();
+    {
         const auto it = connections_.find(d.job.connection);
         if (it == connections_.end()) {
-            continue;  // closed meanwhile: a lease its write took runs out
+            return;  // closed meanwhile: a lease its write took runs out
         }
         Connection& c = *it->second;
         c.busy = false;
@@ -397,7 +378,7 @@ void Server::on_done() {
         }
         reply(c, d.job.transaction, d.job.unit, answer(d.job.call, d.result));
         if (connections_.count(d.job.connection) == 0) {
-            continue;
+            return;
         }
         pump(c);
         if (connections_.count(d.job.connection) != 0) {
@@ -478,6 +459,11 @@ void Server::bump(std::uint64_t Stats::* field) {
 void Server::set_open() {
     std::lock_guard lock(mutex_);
     stats_.open = connections_.size();
+}
+
+void Server::set_waiting() {
+    std::lock_guard lock(mutex_);
+    stats_.waiting = turns_.size();
 }
 
 void Server::on_tick() {

@@ -15,6 +15,7 @@
 #include "gateway/mbap.hpp"
 #include "gateway/server.hpp"
 #include "sim_process.hpp"
+#include "sys/event_fd.hpp"
 #include "sys/posix.hpp"
 #include "tcp_peer.hpp"
 
@@ -48,11 +49,59 @@ public:
         s.registers[0] = shm::RegisterSample{0xFD00, 3000, 1, {}, polled_at.value_or(now_ns())};
         return s;
     }
-    std::expected<shm::Response, Error> request(std::uint8_t unit, const shm::Request& request) override {
-        std::unique_lock lock(mutex);
+    // Answered in the next dispatch(), as libdrivebus answers; a blocked unit's requests wait
+    // until it is let go.
+    void submit(std::uint8_t unit, const shm::Request& request, Done done) override {
+        std::lock_guard lock(mutex);
         seen.push_back(request);
         changed.notify_all();
-        changed.wait(lock, [&] { return unit != blocked_unit; });
+        pending.push_back({unit, request, std::move(done)});
+        ready.signal();
+    }
+    std::vector<int> descriptors() const override { return {ready.fd()}; }
+    void dispatch() override {
+        ready.drain();
+        std::vector<Pending> now;
+        {
+            std::lock_guard lock(mutex);
+            std::erase_if(pending, [&](Pending& p) {
+                if (p.unit == blocked_unit) {
+                    return false;
+                }
+                now.push_back(std::move(p));
+                return true;
+            });
+        }
+        for (auto& p : now) {
+            p.done(answer(p.unit, p.request));
+        }
+    }
+    // When the snapshot's FD00 was polled: now at each call unless set.
+    std::optional<std::int64_t> polled_at;
+    // From the test's thread.
+    void block(int unit) {
+        std::lock_guard lock(mutex);
+        blocked_unit = unit;
+        changed.notify_all();
+        ready.signal();
+    }
+    bool wait_seen(std::size_t n) {
+        std::unique_lock lock(mutex);
+        return changed.wait_for(lock, 10s, [&] { return seen.size() >= n; });
+    }
+    std::vector<shm::Request> requests() {
+        std::lock_guard lock(mutex);
+        return seen;
+    }
+
+private:
+    struct Pending {
+        std::uint8_t unit = 0;
+        shm::Request request;
+        Done done;
+    };
+    shm::Response answer(std::uint8_t unit, const shm::Request& request) {
+        std::lock_guard lock(mutex);
         shm::Response r;
         r.count = request.count;
         if (request.kind == shm::RequestKind::Read) {
@@ -74,23 +123,7 @@ public:
         }
         return r;
     }
-    // When the snapshot's FD00 was polled: now at each call unless set.
-    std::optional<std::int64_t> polled_at;
-    void block(int unit) {
-        std::lock_guard lock(mutex);
-        blocked_unit = unit;
-        changed.notify_all();
-    }
-    bool wait_seen(std::size_t n) {
-        std::unique_lock lock(mutex);
-        return changed.wait_for(lock, 10s, [&] { return seen.size() >= n; });
-    }
-    std::vector<shm::Request> requests() {
-        std::lock_guard lock(mutex);
-        return seen;
-    }
 
-private:
     Route pump_{"line1", "pump"};
     Route fan_{"line1", "fan"};
     std::mutex mutex;
@@ -99,10 +132,11 @@ private:
     std::map<int, shm::LeaseToken> holders;
     std::uint64_t next_token = 100;
     int blocked_unit = -1;
+    std::vector<Pending> pending;
+    sys::EventFd ready{"eventfd of the fake drivebusd"};
 };
 
-// Lets the fake's hung drive go when a test ends, even by a failed assertion: the server's
-// workers are joined when it goes, and one may be waiting in the fake.
+// Lets the fake's hung drive go when a test ends, even by a failed assertion.
 class Unblock {
 public:
     explicit Unblock(FakeBackend& backend) : backend_(backend) {}
@@ -344,6 +378,44 @@ TEST(GatewayServer, AClientThatResetsWhileItsRequestWaitsIsDroppedAtOnce) {
     EXPECT_TRUE(drivebus::test::wait_until([&] { return r.server.stats().open == 0; }, 5s))
         << "the connection is still open while its drive hangs";
     backend.block(-1);
+}
+
+TEST(GatewayServer, AtMostWorkersRequestsAreWithDrivebusdAndTheOthersWaitTheirTurnInOrder) {
+    FakeBackend backend;
+    Running r(loopback(), backend);  // workers = 2
+    const Unblock unblock(backend);
+    backend.block(2);
+    Peer a(r.server.port());
+    Peer b(r.server.port());
+    Peer c(r.server.port());
+    Peer d(r.server.port());
+    a.request(1, 2, kReadFd06);
+    b.request(2, 2, kReadFd06);
+    ASSERT_TRUE(backend.wait_seen(2));
+    c.request(3, 1, kReadFd06);  // a drive that answers, but both requests under way are a's and b's
+    ASSERT_TRUE(drivebus::test::wait_until([&] { return r.server.stats().waiting == 1; }, 10s));
+    d.request(4, 1, kReadFd06);
+    ASSERT_TRUE(drivebus::test::wait_until([&] { return r.server.stats().waiting == 2; }, 10s));
+    EXPECT_EQ(backend.requests().size(), 2U) << "more than `workers` requests went to drivebusd";
+    backend.block(-1);
+    for (auto* p : {&a, &b, &c, &d}) {
+        const auto answered = p->answer();
+        ASSERT_TRUE(answered);
+        EXPECT_EQ(answered->second, (Bytes{0x03, 0x02, 0xFD, 0x06}));
+    }
+    const auto seen = backend.requests();
+    ASSERT_EQ(seen.size(), 4U);
+    // c's went before d's: the order they came in.
+    const auto name_of = [](const Peer& p) {
+        sockaddr_in local{};
+        socklen_t length = sizeof local;
+        ::getsockname(p.fd(), reinterpret_cast<sockaddr*>(&local), &length);
+        return "tcp 127.0.0.1:" + std::to_string(ntohs(local.sin_port));
+    };
+    EXPECT_EQ(shm::view(seen[2].client_name), name_of(c));
+    EXPECT_EQ(shm::view(seen[3].client_name), name_of(d));
+    EXPECT_EQ(r.server.stats().waiting, 0U);
+    EXPECT_EQ(r.server.stats().sent, 4U);
 }
 
 TEST(GatewayServer, AWriteThroughOneUnitIdIsNotReadBackStaleThroughAnother) {

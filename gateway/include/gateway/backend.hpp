@@ -5,8 +5,10 @@
 
 #include <cstdint>
 #include <expected>
+#include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "drivebus/client.hpp"
 #include "drivebus/shm.hpp"
@@ -32,10 +34,14 @@ public:
     [[nodiscard]] virtual const Route* route(std::uint8_t unit) const = 0;
     // The drive's latest snapshot (nothing before the first).
     [[nodiscard]] virtual std::optional<shm::DriveSnapshot> snapshot(std::uint8_t unit) const = 0;
-    // Sends `request` to the drive's bus and waits for its answer. Called on a worker thread,
-    // several at once.
-    [[nodiscard]] virtual std::expected<shm::Response, Error> request(std::uint8_t unit,
-                                                                      const shm::Request& request) = 0;
+    // Sends `request` to the drive's bus and returns at once; `done` runs later, in dispatch()
+    // on the server's loop thread, with its answer: exactly once while the backend lives.
+    using Done = std::function<void(std::expected<shm::Response, Error>)>;
+    virtual void submit(std::uint8_t unit, const shm::Request& request, Done done) = 0;
+    // The descriptors the server's loop watches for the backend: when one is readable, the loop
+    // calls dispatch(), which runs the answers that have come (and takes new snapshots).
+    [[nodiscard]] virtual std::vector<int> descriptors() const = 0;
+    virtual void dispatch() = 0;
 };
 
 }  // namespace drivebus::gateway

@@ -1,9 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
-// The Modbus TCP server: one event loop thread owns the sockets (accept, read, answer), and a
-// few worker threads carry the requests that need drivebusd. Each connection's requests are
-// answered in the order they came (its head waits while it is with drivebusd), and a connection
-// has at most one request with the workers at a time, so connections take turns: one that
-// floods waits behind its own requests, not others'.
+// The Modbus TCP server: one event loop thread owns the sockets (accept, read, answer) and
+// drivebusd's descriptors: the requests that need drivebusd go out without waiting, and their
+// answers come back in the same loop (Backend::dispatch; libdrivebus on Delivery::Dispatch), so
+// the gateway has no other thread. Each connection's requests are answered in the order they
+// came (its head waits while it is with drivebusd), a connection has at most one request with
+// drivebusd at a time, and at most `workers` are under way at once (the others wait their
+// turn, in the order they came), so connections take turns: one that floods waits behind its
+// own requests, not others'.
 //
 // Bounds: max_connections (more are closed at once), max_pipelined requests read ahead per
 // connection and 64 KiB of unsent answers (past either the gateway stops reading from that
@@ -15,14 +18,12 @@
 
 #include <array>
 #include <atomic>
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -46,11 +47,12 @@ struct Stats {
     std::uint64_t idle_closed = 0;
     std::uint64_t broken_streams = 0;  // closed: not Modbus TCP
     std::uint64_t open = 0;            // connections open now
+    std::uint64_t waiting = 0;         // requests waiting their turn now (`workers` under way)
 };
 
 class Server {
 public:
-    // Binds and listens (throws std::system_error naming the address); starts the workers.
+    // Binds and listens (throws std::system_error naming the address).
     Server(Config config, Backend& backend);
     ~Server();
     Server(const Server&) = delete;
@@ -85,18 +87,20 @@ private:
     void accept_all();
     void on_ready(std::uint64_t id, sys::Readiness readiness);
     void read_from(Connection& c);
-    // Answers what it can of the connection's queue, in order, until its head goes to a worker.
+    // Answers what it can of the connection's queue, in order, until its head goes to drivebusd.
     void pump(Connection& c);
     void take(Connection& c, const Adu& adu);
     void reply(Connection& c, std::uint16_t transaction, std::uint8_t unit, const std::vector<std::uint8_t>& pdu);
     void flush(Connection& c);
     void update_interest(Connection& c);
     void close(std::uint64_t id, const char* why);
-    void on_done();
+    // A request to drivebusd, and its answer.
+    void send(Job job);
+    void on_done(Done d);
     void on_tick();
-    void work();
     void bump(std::uint64_t Stats::* field);
     void set_open();
+    void set_waiting();
     void log_refused_write(const Connection& c, std::uint8_t unit, const WriteRegisters& write, const std::string& why);
 
     Config config_;
@@ -104,7 +108,6 @@ private:
     sys::EventLoop loop_;
     sys::UniqueFd listener_;
     std::uint16_t port_ = 0;
-    sys::EventFd wake_{"eventfd for the gateway's workers"};
     sys::EventFd stop_{"eventfd to stop the gateway"};
     sys::Timer tick_;
     std::map<std::uint64_t, std::unique_ptr<Connection>> connections_;
@@ -113,13 +116,10 @@ private:
     std::map<std::pair<std::string, std::string>, std::map<std::uint16_t, std::int64_t>> written_;
     std::uint64_t next_id_ = 1;
 
-    mutable std::mutex mutex_;  // jobs_, done_, stopping_, stats_
-    std::condition_variable work_ready_;
-    std::deque<Job> jobs_;
-    std::vector<Done> done_;
-    bool stopping_ = false;
+    std::size_t in_flight_ = 0;  // with drivebusd
+    std::deque<Job> turns_;      // waiting for one of those to be answered
+    mutable std::mutex mutex_;   // stats_: stats() is asked from other threads
     Stats stats_;
-    std::vector<std::thread> workers_;
 };
 
 }  // namespace drivebus::gateway
