@@ -2,19 +2,18 @@
 // The bridge between drivebusd (libdrivebus) and the broker: each configured bus's drives'
 // snapshots become retained state messages (on change beyond the deadband, and at least every
 // period), its status a retained status message; commands from the broker go through a
-// bounded queue to one worker thread that carries them out with libdrivebus and publishes
-// each result.
+// bounded queue and are carried out one at a time, each result published. All of it runs on
+// one event loop (run()): libdrivebus on Delivery::Dispatch, its requests answered by callback;
+// the broker's network thread (libmosquitto's) only queues and wakes it.
 #pragma once
 
 #include <atomic>
-#include <condition_variable>
 #include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
-#include <thread>
 #include <vector>
 
 #include "broker_link.hpp"
@@ -24,6 +23,7 @@
 #include "mqtt/freshness.hpp"
 #include "mqtt/payload.hpp"
 #include "mqtt/topics.hpp"
+#include "sys/event_fd.hpp"
 
 namespace drivebus::mqtt {
 
@@ -61,8 +61,12 @@ private:
     void on_connected();
     void on_message(std::string_view topic, std::string_view payload, bool retained);
     void refuse(const Topics::Target& target, const Json& id, std::string_view reason, std::string_view message);
-    void work();
-    void carry_out(const Job& job);
+    struct Running;
+    // The next queued command, when none is under way.
+    void start_command();
+    // Carries out the command's next action, or ends it with its result.
+    void step(const std::shared_ptr<Running>& r);
+    void wake() const { wake_.signal(); }
     void connect_bus(BusLink& bus, Clock::time_point now);
     void publish_bus(BusLink& bus, Clock::time_point now, bool force);
     void publish_drive(BusLink& bus, DriveLink& drive, Clock::time_point now, bool force);
@@ -75,14 +79,12 @@ private:
     std::vector<std::unique_ptr<BusLink>> buses_;
     std::unique_ptr<BrokerLink> link_;
 
-    mutable std::mutex mutex_;  // the wake-up, drives found, the command queue
-    std::condition_variable wake_;
+    mutable std::mutex mutex_;  // the flags, drives found, the command queue
+    sys::EventFd wake_{"eventfd to wake the bridge's loop"};
     bool stopping_ = false;
     bool republish_ = false;
-    bool dirty_ = false;
     std::deque<Job> jobs_;
-    std::condition_variable jobs_ready_;
-    std::thread worker_;
+    std::shared_ptr<Running> running_;  // the command under way (the loop's thread only)
     BridgeCounters counters_;
 };
 

@@ -195,7 +195,8 @@ public:
     // Delivery::Dispatch: sends the request as request() does and returns at once; `done` runs
     // in a later dispatch() with what request() would have returned, exactly once, unless the
     // Bus (with every Drive of it) is destroyed first: its pending completions are then
-    // destroyed uncalled. Delivery::Thread: `done` runs at once with InvalidArgument.
+    // destroyed uncalled (a `done` that holds a Drive or Bus of this bus keeps it from going
+    // until it has run). Delivery::Thread: `done` runs at once with InvalidArgument.
     using ResponseDone = std::function<void(std::expected<shm::Response, Error>)>;
     void async_request(shm::Request request, ResponseDone done) const;
 

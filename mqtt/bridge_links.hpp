@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: Apache-2.0
+// What the bridge keeps per bus and per drive (bridge.cpp connects and publishes them,
+// bridge_commands.cpp carries out the commands to them).
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "bridge.hpp"
+#include "mqtt/backoff.hpp"
+
+namespace drivebus::mqtt {
+
+// How soon a bus drivebusd does not answer is tried again: from 1 s, doubling up to 30 s.
+inline constexpr auto kBusRetryShortest = std::chrono::seconds(1);
+inline constexpr auto kBusRetryLongest = std::chrono::seconds(30);
+
+struct Bridge::DriveLink {
+    DriveSettings settings;
+    Drive drive;
+    Subscription subscription;
+    // The newest snapshot, from dispatch() on the bridge's loop (under Bridge::mutex_, which
+    // the network thread's commands take to find the drive).
+    std::optional<shm::DriveSnapshot> latest;
+    bool fresh = false;
+    // The loop's alone.
+    Json published;
+    Clock::time_point published_at{};
+    bool pending = true;  // to publish even without change (first time, after a reconnect)
+};
+
+struct Bridge::BusLink {
+    BusSettings settings;
+    std::optional<Bus> bus;
+    std::vector<std::shared_ptr<DriveLink>> drives;  // set once connected (under Bridge::mutex_)
+    Backoff retry{kBusRetryShortest, kBusRetryLongest};
+    Clock::time_point next_attempt{};
+    std::string last_error;
+    Json published;
+    Clock::time_point published_at{};
+    bool pending = true;
+};
+
+}  // namespace drivebus::mqtt
