@@ -101,9 +101,12 @@ public:
 
     // Where each of its threads waits (name, kernel wait channel, state): what a hung client
     // was doing, for the failure message.
-    [[nodiscard]] std::string threads() const {
+    [[nodiscard]] std::string threads() const { return threads_of(pid_); }
+
+    // The same of any process (drivebusd: where its embedded RouDi's threads wait).
+    [[nodiscard]] static std::string threads_of(int pid) {
         std::string out;
-        const std::filesystem::path tasks = "/proc/" + std::to_string(pid_) + "/task";
+        const std::filesystem::path tasks = "/proc/" + std::to_string(pid) + "/task";
         std::error_code ec;
         for (const auto& task : std::filesystem::directory_iterator(tasks, ec)) {
             const auto read = [&](const char* name) {

@@ -141,7 +141,11 @@ TEST(Ipc, ClientsKilledInsideSendStallNeitherRouDiNorTheOthers) {
             s->kill9();
         }
     }
-    ASSERT_EQ(reader.wait(60s), 0) << reader.output() << "\n" << stack.daemon_output();
+    // A reader still running names its threads' wait channels; drivebusd's (RouDi's among
+    // them) say what it waits on.
+    ASSERT_EQ(reader.wait(60s), 0) << reader.output() << "\n[drivebusd: " << Client::threads_of(stack.daemon_pid())
+                                   << "]\n"
+                                   << stack.daemon_output();
     EXPECT_EQ(lines_with(reader.output(), "value ").size(), 100U);
     Client after({stack.bus(), "read", "FD00", "3"});
     ASSERT_EQ(after.wait(10s), 0) << after.output() << "\n" << stack.daemon_output();
