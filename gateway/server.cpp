@@ -14,16 +14,15 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <deque>
 #include <system_error>
 
-#include "gateway/route.hpp"
 #include "log/log.hpp"
 
 namespace drivebus::gateway {
 namespace {
 
 constexpr std::size_t kReadChunk = 4096;
-constexpr std::size_t kMaxUnsent = 64 * 1024;
 constexpr auto kTick = std::chrono::seconds(1);
 // Half-open peers (a cable pulled, a crashed host) are found by TCP keepalive: probes after 10 s
 // of silence, every 5 s, given up after 3.
@@ -115,24 +114,37 @@ struct Server::Connection {
     std::uint64_t id = 0;
     sys::UniqueFd fd;
     Address peer;
-    std::string name;  // as drivebusd shows it: "tcp 10.0.0.5:50122"
-    bool may_write = false;
-    MbapReader reader;
-    std::deque<Adu> queue;  // taken, not answered; the head is with a worker while `busy`
-    bool busy = false;
     std::vector<std::uint8_t> unsent;
     std::size_t sent = 0;
-    std::chrono::steady_clock::time_point last_request;
-    // The control leases this connection holds, by bus; `none` (random, no lease has it) is
-    // presented where it holds none, so that drivebusd never takes it for another's.
-    std::map<std::string, shm::LeaseToken, std::less<>> tokens;
-    shm::LeaseToken none = random_token();
     bool reading = true;
     bool writing = false;
     bool peer_closed = false;
 };
 
-Server::Server(Config config, Backend& backend) : config_(std::move(config)), backend_(backend) {
+namespace {
+
+SessionLimits limits_of(const Config& config) {
+    SessionLimits limits;
+    limits.max_pipelined = config.max_pipelined;
+    limits.workers = config.workers;
+    limits.max_age_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(config.max_age).count();
+    limits.idle_timeout_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(config.idle_timeout).count();
+    return limits;
+}
+
+log::Level level_of(Severity severity) noexcept {
+    switch (severity) {
+    case Severity::Info: return log::Level::Info;
+    case Severity::Notice: return log::Level::Notice;
+    case Severity::Warning: break;
+    }
+    return log::Level::Warning;
+}
+
+}  // namespace
+
+Server::Server(Config config, Backend& backend)
+    : config_(std::move(config)), backend_(backend), session_(limits_of(config_), backend_) {
     listener_ = listen_on(config_.listen, port_);
     auto check = [](std::expected<void, sys::SysError> ok, const char* what) {
         if (!ok) {
@@ -165,6 +177,15 @@ Stats Server::stats() const {
     return stats_;
 }
 
+void Server::publish() {
+    Stats now = session_.stats();
+    now.connections = own_.connections;
+    now.refused_connections = own_.refused_connections;
+    now.open = connections_.size();
+    std::lock_guard lock(mutex_);
+    stats_ = now;
+}
+
 void Server::accept_all() {
     for (;;) {
         sockaddr_storage from{};
@@ -178,19 +199,21 @@ void Server::accept_all() {
             if (errno == EMFILE || errno == ENFILE) {
                 log::write(log::Level::Warning, "gateway: out of file descriptors: a connection waits in the backlog");
             }
-            return;  // EAGAIN: all taken
+            break;  // EAGAIN: all taken
         }
         auto c = std::make_unique<Connection>();
         c->fd.reset(fd);
         c->peer = from_sockaddr(from);
         const std::string peer = c->peer.to_string();
         if (!config_.allow_from.empty() && !listed(config_.allow_from, c->peer)) {
-            bump(&Stats::refused_connections);
+            ++own_.refused_connections;
+            publish();
             log::write(log::Level::Notice, fmt::format("gateway: connection from {} refused: not in allow_from", peer));
             continue;
         }
         if (connections_.size() >= config_.max_connections) {
-            bump(&Stats::refused_connections);
+            ++own_.refused_connections;
+            publish();
             log::write(log::Level::Warning, fmt::format("gateway: connection from {} refused: {} connections open "
                                                         "(max_connections)",
                                                         peer, connections_.size()));
@@ -198,9 +221,7 @@ void Server::accept_all() {
         }
         tune(fd);
         c->id = next_id_++;
-        c->name = "tcp " + peer;
-        c->may_write = listed(config_.write_from, c->peer);
-        c->last_request = std::chrono::steady_clock::now();
+        const bool may_write = listed(config_.write_from, c->peer);
         const std::uint64_t id = c->id;
         if (auto ok = loop_.add(fd, [this, id](sys::Readiness r) { on_ready(id, r); }); !ok) {
             log::write(log::Level::Warning,
@@ -208,10 +229,11 @@ void Server::accept_all() {
             continue;
         }
         log::write(log::Level::Info,
-                   fmt::format("gateway: connection from {}{}", peer, c->may_write ? " (may write)" : " (read-only)"));
+                   fmt::format("gateway: connection from {}{}", peer, may_write ? " (may write)" : " (read-only)"));
+        session_.open(id, peer, may_write, random_token(), monotonic_ns());
         connections_.emplace(id, std::move(c));
-        bump(&Stats::connections);
-        set_open();
+        ++own_.connections;
+        publish();
     }
 }
 
@@ -223,12 +245,13 @@ void Server::on_ready(std::uint64_t id, sys::Readiness readiness) {
     Connection& c = *it->second;
     if (readiness.writable) {
         flush(c);
+        carry(session_.unsent(id, c.unsent.size() - c.sent, monotonic_ns()));
     }
-    if (readiness.readable && c.reading) {
+    if (connections_.count(id) != 0 && readiness.readable && c.reading) {
         read_from(c);
     }
     if (connections_.count(id) == 0) {
-        return;  // closed by read_from
+        return;  // closed meanwhile
     }
     // Both directions are down (or the peer reset it): no answer can reach it any more. Closed
     // now even while it is not being read, or epoll would report the hang-up on every round.
@@ -248,156 +271,56 @@ void Server::read_from(Connection& c) {
     }
     if (n < 0) {
         if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
-            close(c.id, ("lost: " + std::generic_category().message(errno)).c_str());
+            close(c.id, "lost: " + std::generic_category().message(errno));
         }
         return;
     }
-    c.reader.feed(std::span(buffer.data(), static_cast<std::size_t>(n)));
-    pump(c);
+    carry(session_.received(c.id, std::span(buffer.data(), static_cast<std::size_t>(n)), monotonic_ns()));
 }
 
-void Server::pump(Connection& c) {
-    const std::uint64_t id = c.id;
-    for (;;) {
-        // Take what has arrived, up to the read-ahead bound.
-        while (c.queue.size() < config_.max_pipelined) {
-            auto next = c.reader.next();
-            if (!next) {
-                bump(&Stats::broken_streams);
-                log::write(log::Level::Notice, fmt::format("gateway: {}: {}: connection closed", c.peer.to_string(),
-                                                           to_string(next.error())));
-                close(id, nullptr);
-                return;
+void Server::carry(Effects effects) {
+    std::deque<Effects> pending;
+    pending.push_back(std::move(effects));
+    while (!pending.empty()) {
+        Effects e = std::move(pending.front());
+        pending.pop_front();
+        publish();  // the counters as they are before anything is answered
+        for (const auto& note : e.notes) {
+            log::write(level_of(note.severity), note.text, log::Fields{note.bus, note.drive});
+        }
+        for (auto& out : e.requests) {
+            backend_.submit(out.unit, out.request,
+                            [this, ticket = out.ticket](std::expected<shm::Response, Error> result) {
+                                carry(session_.answered(ticket, result, monotonic_ns()));
+                            });
+        }
+        // The answers first (a connection closed below still gets those before it), in order.
+        std::vector<std::uint64_t> written;
+        for (auto& [id, adu] : e.replies) {
+            const auto it = connections_.find(id);
+            if (it == connections_.end()) {
+                continue;
             }
-            if (!next->has_value()) {
-                break;
-            }
-            c.queue.push_back(std::move(**next));
-            c.last_request = std::chrono::steady_clock::now();
-            bump(&Stats::requests);
-        }
-        if (c.busy || c.queue.empty() || c.unsent.size() - c.sent > kMaxUnsent) {
-            return;
-        }
-        const Adu adu = std::move(c.queue.front());
-        c.queue.pop_front();
-        take(c, adu);
-        if (connections_.count(id) == 0) {
-            return;
-        }
-    }
-}
-
-void Server::take(Connection& c, const Adu& adu) {
-    const std::uint8_t fc = adu.pdu.empty() ? 0 : adu.pdu[0];
-    const Route* route = backend_.route(adu.unit);
-    if (route == nullptr) {
-        reply(c, adu.transaction, adu.unit, exception_pdu(fc, Exception::GatewayPathUnavailable));
-        return;
-    }
-    const auto call = parse_request(adu.pdu);
-    if (!call) {
-        reply(c, adu.transaction, adu.unit, exception_pdu(call.error().function, call.error().exception));
-        return;
-    }
-    const auto snapshot = backend_.snapshot(adu.unit);
-    Context context;
-    context.drive = route->drive;
-    context.snapshot = snapshot ? &*snapshot : nullptr;
-    context.now_ns = monotonic_ns();
-    context.max_age_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(config_.max_age).count();
-    context.may_write = c.may_write;
-    context.written = &written_[{route->bus, route->drive}];
-    auto decision = decide(*call, context);
-    if (auto* answer = std::get_if<Answer>(&decision)) {
-        if (!answer->refused_write.empty()) {
-            log_refused_write(c, adu.unit, std::get<WriteRegisters>(*call), answer->refused_write);
-        }
-        if (answer->from_snapshot) {
-            bump(&Stats::from_snapshot);
-        }
-        reply(c, adu.transaction, adu.unit, answer->pdu);
-        return;
-    }
-    Job job{c.id, adu.transaction, adu.unit, *call, std::get<Send>(decision).request};
-    const auto token = c.tokens.find(route->bus);
-    job.request.lease_token = token != c.tokens.end() ? token->second : c.none;
-    shm::assign(job.request.client_name, c.name);
-    c.busy = true;
-    if (in_flight_ < config_.workers) {
-        send(std::move(job));
-    } else {
-        turns_.push_back(std::move(job));  // its turn comes when one under way is answered
-        set_waiting();
-    }
-}
-
-void Server::send(Job job) {
-    ++in_flight_;
-    bump(&Stats::sent);
-    const std::uint8_t unit = job.unit;
-    const shm::Request request = job.request;
-    backend_.submit(unit, request, [this, job = std::move(job)](std::expected<shm::Response, Error> result) {
-        on_done(Done{job, std::move(result)});
-    });
-}
-
-void Server::on_done(Done d) {
-    --in_flight_;
-    // The connections waiting their turn first, in the order they came.
-    while (in_flight_ < config_.workers && !turns_.empty()) {
-        Job next = std::move(turns_.front());
-        turns_.pop_front();
-        if (connections_.contains(next.connection)) {
-            send(std::move(next));
-        }
-    }
-    set_waiting();
-    {
-        const auto it = connections_.find(d.job.connection);
-        if (it == connections_.end()) {
-            return;  // closed meanwhile: a lease its write took runs out
-        }
-        Connection& c = *it->second;
-        c.busy = false;
-        if (d.result && d.result->lease_ms > 0 && d.result->lease_token != shm::LeaseToken{}) {
-            if (const Route* route = backend_.route(d.job.unit)) {
-                c.tokens[route->bus] = d.result->lease_token;
+            Connection& c = *it->second;
+            c.unsent.insert(c.unsent.end(), adu.begin(), adu.end());
+            flush(c);
+            if (written.empty() || written.back() != id) {
+                written.push_back(id);
             }
         }
-        const auto* write = std::get_if<WriteRegisters>(&d.job.call);
-        const Route* route = backend_.route(d.job.unit);
-        if (write != nullptr && d.result && d.result->status == shm::Status::Ok && route != nullptr) {
-            const std::int64_t at = std::max(d.result->reply_ns, monotonic_ns());
-            auto& registers = written_[{route->bus, route->drive}];
-            for (std::size_t i = 0; i < write->values.size(); ++i) {
-                registers[static_cast<std::uint16_t>(write->start + i)] = at;
+        for (const auto& [id, why] : e.closes) {
+            close_socket(id, why);
+        }
+        for (const auto id : written) {
+            const auto it = connections_.find(id);
+            if (it == connections_.end()) {
+                continue;
             }
-        } else if (write != nullptr) {
-            log_refused_write(c, d.job.unit, *write, describe_failure(d.result));
-        }
-        reply(c, d.job.transaction, d.job.unit, answer(d.job.call, d.result));
-        if (connections_.count(d.job.connection) == 0) {
-            return;
-        }
-        pump(c);
-        if (connections_.count(d.job.connection) != 0) {
+            Connection& c = *it->second;
+            pending.push_back(session_.unsent(id, c.unsent.size() - c.sent, monotonic_ns()));
             update_interest(c);
         }
     }
-}
-
-void Server::reply(Connection& c, std::uint16_t transaction, std::uint8_t unit, const std::vector<std::uint8_t>& pdu) {
-    if (pdu.size() >= 2 && (pdu[0] & 0x80) != 0) {
-        bump(&Stats::exceptions);
-    }
-    const auto adu = encode(transaction, unit, pdu);
-    if (c.sent == c.unsent.size()) {
-        c.unsent.clear();
-        c.sent = 0;
-    }
-    c.unsent.insert(c.unsent.end(), adu.begin(), adu.end());
-    flush(c);
 }
 
 void Server::flush(Connection& c) {
@@ -428,9 +351,8 @@ void Server::update_interest(Connection& c) {
         close(c.id, "reset by the client");
         return;
     }
-    const std::size_t unsent = c.unsent.size() - c.sent;
-    const bool reading = c.queue.size() < config_.max_pipelined && unsent <= kMaxUnsent;
-    const bool writing = unsent > 0;
+    const bool reading = session_.reading(c.id);
+    const bool writing = c.sent < c.unsent.size();
     if (reading != c.reading || writing != c.writing) {
         c.reading = reading;
         c.writing = writing;
@@ -438,69 +360,28 @@ void Server::update_interest(Connection& c) {
     }
 }
 
-void Server::close(std::uint64_t id, const char* why) {
+void Server::close(std::uint64_t id, const std::string& why) {
+    session_.close(id);
+    close_socket(id, why);
+}
+
+void Server::close_socket(std::uint64_t id, const std::string& why) {
     const auto it = connections_.find(id);
     if (it == connections_.end()) {
         return;
     }
     loop_.remove(it->second->fd.get());
-    if (why != nullptr) {
+    if (!why.empty()) {
         log::write(log::Level::Info, fmt::format("gateway: {}: connection {}", it->second->peer.to_string(), why));
     }
     connections_.erase(it);
-    set_open();
-}
-
-void Server::bump(std::uint64_t Stats::* field) {
-    std::lock_guard lock(mutex_);
-    ++(stats_.*field);
-}
-
-void Server::set_open() {
-    std::lock_guard lock(mutex_);
-    stats_.open = connections_.size();
-}
-
-void Server::set_waiting() {
-    std::lock_guard lock(mutex_);
-    stats_.waiting = turns_.size();
+    publish();
 }
 
 void Server::on_tick() {
     tick_.acknowledge();
     (void)tick_.arm(sys::now() + kTick);
-    // A write older than max_age no longer matters: no value that old is served anyway.
-    const std::int64_t horizon =
-        monotonic_ns() - std::chrono::duration_cast<std::chrono::nanoseconds>(config_.max_age).count();
-    for (auto& [drive, registers] : written_) {
-        std::erase_if(registers, [&](const auto& w) { return w.second < horizon; });
-    }
-    if (config_.idle_timeout.count() == 0) {
-        return;
-    }
-    const auto now = std::chrono::steady_clock::now();
-    std::vector<std::uint64_t> idle;
-    for (const auto& [id, c] : connections_) {
-        if (!c->busy && now - c->last_request > config_.idle_timeout) {
-            idle.push_back(id);
-        }
-    }
-    for (const auto id : idle) {
-        bump(&Stats::idle_closed);
-        close(id, "idle: closed (idle_timeout)");
-    }
-}
-
-void Server::log_refused_write(const Connection& c, std::uint8_t unit, const WriteRegisters& write,
-                               const std::string& why) {
-    bump(&Stats::refused_writes);
-    const Route* route = backend_.route(unit);
-    log::write(log::Level::Notice,
-               fmt::format("gateway: write refused from {} to unit {} ({}), register 0x{:04X}, {} word(s): {}",
-                           c.peer.to_string(), unit, route != nullptr ? route->drive : std::string("no drive"),
-                           write.start, write.values.size(), why),
-               log::Fields{route != nullptr ? std::string_view(route->bus) : std::string_view(),
-                           route != nullptr ? std::string_view(route->drive) : std::string_view()});
+    carry(session_.tick(monotonic_ns()));
 }
 
 }  // namespace drivebus::gateway

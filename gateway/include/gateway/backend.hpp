@@ -21,19 +21,25 @@ struct Route {
     std::string drive;  // its name on that bus
 };
 
-class Backend {
+// What the session (session.hpp) reads of drivebusd: which drive a unit reaches, and its latest
+// snapshot.
+class Directory {
 public:
-    Backend() = default;
-    virtual ~Backend() = default;
-    Backend(const Backend&) = delete;
-    Backend& operator=(const Backend&) = delete;
-    Backend(Backend&&) = delete;
-    Backend& operator=(Backend&&) = delete;
+    Directory() = default;
+    virtual ~Directory() = default;
+    Directory(const Directory&) = delete;
+    Directory& operator=(const Directory&) = delete;
+    Directory(Directory&&) = delete;
+    Directory& operator=(Directory&&) = delete;
 
     // Nothing when no drive answers to `unit`.
     [[nodiscard]] virtual const Route* route(std::uint8_t unit) const = 0;
     // The drive's latest snapshot (nothing before the first).
     [[nodiscard]] virtual std::optional<shm::DriveSnapshot> snapshot(std::uint8_t unit) const = 0;
+};
+
+class Backend : public Directory {
+public:
     // Sends `request` to the drive's bus and returns at once; `done` runs later, in dispatch()
     // on the server's loop thread, with its answer: exactly once while the backend lives.
     using Done = std::function<void(std::expected<shm::Response, Error>)>;
