@@ -117,7 +117,7 @@ void Session::take(std::uint64_t id, Connection& c, const Adu& adu, std::int64_t
     context.now_ns = now_ns;
     context.max_age_ns = limits_.max_age_ns;
     context.may_write = c.may_write;
-    context.written = &written_[{route->bus, route->drive}];
+    context.written = &given_[{route->bus, route->drive}];
     auto decision = decide(*call, context);
     if (auto* answer = std::get_if<Answer>(&decision)) {
         if (!answer->refused_write.empty()) {
@@ -175,11 +175,25 @@ Effects Session::answered(std::uint64_t ticket, const std::expected<shm::Respons
         c->second.tokens[route->bus] = result->lease_token;
     }
     const auto* write = std::get_if<WriteRegisters>(&job.call);
-    if (write != nullptr && result && result->status == shm::Status::Ok && route != nullptr) {
-        const std::int64_t at = std::max(result->reply_ns, now_ns);
-        auto& registers = written_[{route->bus, route->drive}];
-        for (std::size_t i = 0; i < write->values.size(); ++i) {
-            registers[static_cast<std::uint16_t>(write->start + i)] = at;
+    const auto* read = std::get_if<ReadRegisters>(&job.call);
+    const bool ok = result && result->status == shm::Status::Ok;
+    if (ok && route != nullptr && (write != nullptr || read != nullptr)) {
+        // What the gateway has given of these registers: a snapshot older is not served after.
+        std::int64_t at = result->reply_ns;
+        std::uint16_t start = 0;
+        std::size_t count = 0;
+        if (write != nullptr) {
+            at = std::max(at, now_ns);
+            start = write->start;
+            count = write->values.size();
+        } else if (read != nullptr) {
+            start = read->start;
+            count = read->count;
+        }
+        auto& registers = given_[{route->bus, route->drive}];
+        for (std::size_t i = 0; i < count; ++i) {
+            auto& when = registers[static_cast<std::uint16_t>(start + i)];
+            when = std::max(when, at);
         }
     } else if (write != nullptr) {
         refused_write(c->second, job.unit, *write, describe_failure(result), out);
@@ -203,10 +217,10 @@ Effects Session::tick(std::int64_t now_ns) {
     Effects out;
     // A write older than max_age no longer matters: no value that old is served anyway.
     const std::int64_t horizon = now_ns - limits_.max_age_ns;
-    for (auto& [drive, registers] : written_) {
+    for (auto& [drive, registers] : given_) {
         std::erase_if(registers, [&](const auto& w) { return w.second < horizon; });
     }
-    std::erase_if(written_, [](const auto& drive) { return drive.second.empty(); });
+    std::erase_if(given_, [](const auto& drive) { return drive.second.empty(); });
     if (limits_.idle_timeout_ns == 0) {
         return out;
     }

@@ -78,13 +78,13 @@ void poke_values(Stack& stack, const Gateway& gateway) {
     drivebus::gateway::test::Peer peer(gateway.port_number());
     const bool polled = wait_until(
         [&] {
-            peer.request(1, 2, {0x03, 0x01, 0xC4, 0x00, 0x01});  // W452
+            peer.request(1, 2, {0x03, 0x01, 0xC2, 0x00, 0x03});  // W450..W452
             const auto a = peer.answer();
-            return a && a->second == drivebus::gateway::test::Bytes{0x03, 0x02, 0x01, 0x4D};
+            return a && a->second == drivebus::gateway::test::Bytes{0x03, 0x06, 0x00, 0x6F, 0x00, 0xDE, 0x01, 0x4D};
         },
         10s);
     if (!polled) {
-        throw std::runtime_error("drivebusd never polled the fan's new W452");
+        throw std::runtime_error("drivebusd never polled the fan's new W450..W452");
     }
 }
 

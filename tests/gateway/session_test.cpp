@@ -211,6 +211,39 @@ TEST(Session, TheLeaseAWriteTookIsPresentedByItsConnectionAloneOnThatBus) {
     EXPECT_EQ(other.requests[0].request.lease_token, token(22));
 }
 
+TEST(Session, AValueReadLiveIsNeverFollowedByAnOlderPollOfIt) {
+    Drives d;
+    d.poll(2, {{450, 0}, {451, 0}, {452, 0}}, 100 * kMs);  // polled before the drive changed
+    Session s(limits(), d);
+    s.open(1, "a", false, token(1), 0);
+    // 453 is not polled: the whole read goes to drivebusd, and 452 comes back as the drive has it.
+    auto e = s.received(1, adus({{1, 2, read_pdu(452, 2)}}), 200 * kMs);
+    ASSERT_EQ(e.requests.size(), 1U);
+    shm::Response live;
+    live.count = 2;
+    live.values[0] = 333;
+    live.values[1] = 7;
+    live.reply_ns = 210 * kMs;
+    e = s.answered(e.requests[0].ticket, live, 211 * kMs);
+    ASSERT_EQ(replies(e).size(), 1U);
+    // The poll of 452 is younger than max_age but older than what this client was given: to the
+    // drive again, not 0 from the snapshot.
+    e = s.received(1, adus({{2, 2, read_pdu(452, 1)}}), 220 * kMs);
+    EXPECT_TRUE(e.replies.empty());
+    ASSERT_EQ(e.requests.size(), 1U);
+    e = s.answered(e.requests[0].ticket, values(e.requests[0].request, 230 * kMs), 231 * kMs);
+    ASSERT_EQ(replies(e).size(), 1U);
+    // 450 was not read live: its poll is served. And a poll after the live read serves 452.
+    e = s.received(1, adus({{3, 2, read_pdu(450, 1)}}), 240 * kMs);
+    ASSERT_EQ(replies(e).size(), 1U);
+    EXPECT_EQ(replies(e)[0].pdu, (Bytes{0x03, 0x02, 0x00, 0x00}));
+    d.poll(2, {{450, 111}, {451, 222}, {452, 333}}, 300 * kMs);
+    e = s.received(1, adus({{4, 2, read_pdu(450, 3)}}), 310 * kMs);
+    ASSERT_EQ(replies(e).size(), 1U);
+    EXPECT_EQ(replies(e)[0].pdu, (Bytes{0x03, 0x06, 0x00, 0x6F, 0x00, 0xDE, 0x01, 0x4D}));
+    EXPECT_EQ(s.stats().from_snapshot, 2U);
+}
+
 TEST(Session, AWriteIsReadBackThroughEveryUnitIdOfItsDriveNotAnOlderPoll) {
     Drives d;
     d.poll(1, {{0xFA01, 0}}, 100 * kMs);

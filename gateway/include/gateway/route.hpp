@@ -44,9 +44,10 @@ struct Context {
     std::int64_t now_ns = 0;                       // CLOCK_MONOTONIC
     std::int64_t max_age_ns = 0;
     bool may_write = false;
-    // When writes through the gateway to this drive's registers were acknowledged
-    // (CLOCK_MONOTONIC, by register): a polled value read before is not served, so that a
-    // client reads back what it wrote.
+    // When the values the gateway last gave of this drive's registers were current
+    // (CLOCK_MONOTONIC, by register): a write it carried, acknowledged, or a reply read through
+    // drivebusd. A polled value read before is not served, so that a client reads back what it
+    // wrote and no value goes back in time.
     const std::map<std::uint16_t, std::int64_t>* written = nullptr;
 };
 

@@ -15,8 +15,9 @@
 //   `max_unsent` bytes of its answers wait to go (its client is not reading them);
 // - the lease a write took is the connection's own: later requests to that bus present its
 //   token; where it holds none it presents a random one no lease has;
-// - a register written through the gateway is not answered from a snapshot taken before the
-//   write was acknowledged (route.hpp); a memo older than max_age is forgotten;
+// - a register is never answered from a snapshot older than what the gateway last gave of it: a
+//   write it carried (acknowledged), or a value read from the drive through drivebusd (route.hpp),
+//   so that no client reads a value go back in time; a memo older than max_age is forgotten;
 // - a connection with no request for idle_timeout, and nothing with drivebusd, is closed.
 #pragma once
 
@@ -131,9 +132,9 @@ private:
     std::map<std::uint64_t, Job> with_drivebusd_;  // by ticket
     std::deque<Job> turns_;                        // waiting for one of those to be answered
     std::uint64_t next_ticket_ = 1;
-    // By drive (bus, name: two unit ids may reach one drive) and register: when a write through
-    // the gateway was acknowledged (route.hpp).
-    std::map<std::pair<std::string, std::string>, std::map<std::uint16_t, std::int64_t>> written_;
+    // By drive (bus, name: two unit ids may reach one drive) and register: when the value the
+    // gateway last gave of it was current (a write acknowledged, a reply read through drivebusd).
+    std::map<std::pair<std::string, std::string>, std::map<std::uint16_t, std::int64_t>> given_;
     Stats stats_;
 };
 
