@@ -14,9 +14,16 @@ using namespace std::chrono_literals;
 
 constexpr auto kIdleWake = 1s;
 
+CommanderLimits limits_of(const Limits& limits) {
+    return CommanderLimits{.max_payload = limits.max_payload,
+                           .command_queue = limits.command_queue,
+                           .max_command_age = limits.max_command_age};
+}
+
 }  // namespace
 
-Bridge::Bridge(const Config& config) : config_(config), topics_(config.node) {
+Bridge::Bridge(const Config& config)
+    : config_(config), topics_(config.node), commander_(limits_of(config.limits), fleet_) {
     for (const auto& b : config_.buses) {
         auto link = std::make_unique<BusLink>();
         link->settings = b;
@@ -56,24 +63,6 @@ void Bridge::on_connected() {
         republish_ = true;
     }
     wake();
-}
-
-std::shared_ptr<Bridge::DriveLink> Bridge::find(std::string_view bus, std::string_view drive,
-                                                const BusLink** on_bus) const {
-    for (const auto& b : buses_) {
-        if (b->settings.name != bus) {
-            continue;
-        }
-        if (on_bus != nullptr) {
-            *on_bus = b.get();
-        }
-        for (const auto& d : b->drives) {
-            if (d->settings.name == drive) {
-                return d;
-            }
-        }
-    }
-    return nullptr;
 }
 
 void Bridge::connect_bus(BusLink& b, Clock::time_point now) {
@@ -132,15 +121,13 @@ void Bridge::connect_bus(BusLink& b, Clock::time_point now) {
     for (auto& d : drives) {
         DriveLink* raw = d.get();
         // In dispatch(), on the loop's thread: the loop publishes what changed after it.
-        d->subscription = d->drive.on_snapshot([this, raw](const shm::DriveSnapshot& s) {
-            std::lock_guard lock(mutex_);
+        d->subscription = d->drive.on_snapshot([raw](const shm::DriveSnapshot& s) {
             raw->latest = s;
             raw->fresh = true;
         });
     }
     log::notice("bus " + b.settings.name + ": bridging " + std::to_string(drives.size()) + " drives",
                 {.bus = b.settings.name});
-    std::lock_guard lock(mutex_);
     b.bus.emplace(std::move(*bus));
     b.drives = std::move(drives);
     b.pending = true;
@@ -169,20 +156,14 @@ void Bridge::publish_bus(BusLink& b, Clock::time_point now, bool force) {
 }
 
 void Bridge::publish_drive(BusLink& b, DriveLink& d, Clock::time_point now, bool force) {
-    std::optional<shm::DriveSnapshot> snapshot;
-    {
-        std::lock_guard lock(mutex_);
-        if (!d.latest) {
-            return;
-        }
-        const bool due = now - d.published_at >= d.settings.period;
-        if (!d.fresh && !force && !d.pending && !due) {
-            return;
-        }
-        snapshot = d.latest;
-        d.fresh = false;
+    if (!d.latest) {
+        return;
     }
-    auto state = drive_state(*snapshot, d.drive.profile());
+    if (!d.fresh && !force && !d.pending && now - d.published_at < d.settings.period) {
+        return;
+    }
+    d.fresh = false;
+    auto state = drive_state(*d.latest, d.drive.profile());
     const bool due = now - d.published_at >= d.settings.period;
     if (!force && !d.pending && !due && !significant_change(d.published, state, d.settings.deadband)) {
         return;
@@ -191,8 +172,7 @@ void Bridge::publish_drive(BusLink& b, DriveLink& d, Clock::time_point now, bool
         d.published = std::move(state);
         d.published_at = now;
         d.pending = false;
-        std::lock_guard lock(mutex_);
-        ++counters_.states_published;
+        ++states_published_;
     }
 }
 
@@ -237,7 +217,7 @@ void Bridge::run() {
             }
             republish = std::exchange(republish_, false);
         }
-        start_command();
+        take_messages();
         const auto now = Clock::now();
         for (auto& b : buses_) {
             if (!b->bus && now >= b->next_attempt) {
@@ -254,9 +234,10 @@ void Bridge::run() {
     }
     link_->stop();
     const auto c = link_->counters();
-    log::notice("stopped: " + std::to_string(counters_.states_published) + " states published, " +
-                std::to_string(counters_.commands) + " commands carried out, " +
-                std::to_string(counters_.commands_refused) + " refused, " + std::to_string(c.dropped) +
+    const auto& commands = commander_.counters();
+    log::notice("stopped: " + std::to_string(states_published_) + " states published, " +
+                std::to_string(commands.commands) + " commands carried out, " +
+                std::to_string(commands.commands_refused) + " refused, " + std::to_string(c.dropped) +
                 " messages dropped, " + std::to_string(c.connections) + " broker connections");
 }
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // What the bridge keeps per bus and per drive (bridge.cpp connects and publishes them,
-// bridge_commands.cpp carries out the commands to them).
+// bridge_commands.cpp carries out the Commander's steps on them). The loop's thread alone reads
+// and changes them.
 #pragma once
 
 #include <chrono>
@@ -21,11 +22,9 @@ struct Bridge::DriveLink {
     DriveSettings settings;
     Drive drive;
     Subscription subscription;
-    // The newest snapshot, from dispatch() on the bridge's loop (under Bridge::mutex_, which
-    // the network thread's commands take to find the drive).
+    // The newest snapshot, from dispatch() on the bridge's loop.
     std::optional<shm::DriveSnapshot> latest;
     bool fresh = false;
-    // The loop's alone.
     Json published;
     Clock::time_point published_at{};
     bool pending = true;  // to publish even without change (first time, after a reconnect)
@@ -34,7 +33,7 @@ struct Bridge::DriveLink {
 struct Bridge::BusLink {
     BusSettings settings;
     std::optional<Bus> bus;
-    std::vector<std::shared_ptr<DriveLink>> drives;  // set once connected (under Bridge::mutex_)
+    std::vector<std::shared_ptr<DriveLink>> drives;  // set once connected
     Backoff retry{kBusRetryShortest, kBusRetryLongest};
     Clock::time_point next_attempt{};
     std::string last_error;
