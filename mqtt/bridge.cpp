@@ -27,6 +27,7 @@ Bridge::Bridge(const Config& config)
     for (const auto& b : config_.buses) {
         auto link = std::make_unique<BusLink>();
         link->settings = b;
+        link->cadence = Cadence(b.period, 0.0);
         buses_.push_back(std::move(link));
     }
     link_ = std::make_unique<BrokerLink>(
@@ -85,14 +86,14 @@ void Bridge::connect_bus(BusLink& b, Clock::time_point now) {
                     error = drive.error().message;
                     break;
                 }
-                drives.push_back(std::make_shared<DriveLink>(DriveLink{.settings = b.settings.drive(name),
-                                                                       .drive = std::move(*drive),
-                                                                       .subscription = {},
-                                                                       .latest = {},
-                                                                       .fresh = false,
-                                                                       .published = {},
-                                                                       .published_at = {},
-                                                                       .pending = true}));
+                const auto settings = b.settings.drive(name);
+                drives.push_back(
+                    std::make_shared<DriveLink>(DriveLink{.settings = settings,
+                                                          .drive = std::move(*drive),
+                                                          .subscription = {},
+                                                          .latest = {},
+                                                          .fresh = false,
+                                                          .cadence = Cadence(settings.period, settings.deadband)}));
             }
         }
     } else {
@@ -106,7 +107,7 @@ void Bridge::connect_bus(BusLink& b, Clock::time_point now) {
         b.next_attempt = now + b.retry.next(0.5);
         if (b.last_error != error) {
             b.last_error = error;
-            b.pending = true;
+            b.cadence.again();
         }
         return;
     }
@@ -130,7 +131,7 @@ void Bridge::connect_bus(BusLink& b, Clock::time_point now) {
                 {.bus = b.settings.name});
     b.bus.emplace(std::move(*bus));
     b.drives = std::move(drives);
-    b.pending = true;
+    b.cadence.again();
 }
 
 void Bridge::publish_bus(BusLink& b, Clock::time_point now, bool force) {
@@ -144,34 +145,27 @@ void Bridge::publish_bus(BusLink& b, Clock::time_point now, bool force) {
         }
         status = bus_status(*s, b.bus->daemon_alive());
     }
-    const bool due = now - b.published_at >= b.settings.period;
-    if (!force && !b.pending && !due && !significant_change(b.published, status, 0.0)) {
+    if (!b.cadence.due(status, now, force)) {
         return;
     }
     if (link_->publish(topics_.bus_status(b.settings.name), status.dump(), 0, true)) {
-        b.published = std::move(status);
-        b.published_at = now;
-        b.pending = false;
+        b.cadence.published(std::move(status), now);
     }
 }
 
 void Bridge::publish_drive(BusLink& b, DriveLink& d, Clock::time_point now, bool force) {
-    if (!d.latest) {
+    if (!d.latest || (!d.fresh && !force && !d.cadence.due_by_time(now))) {
         return;
     }
-    if (!d.fresh && !force && !d.pending && now - d.published_at < d.settings.period) {
-        return;
-    }
-    d.fresh = false;
     auto state = drive_state(*d.latest, d.drive.profile());
-    const bool due = now - d.published_at >= d.settings.period;
-    if (!force && !d.pending && !due && !significant_change(d.published, state, d.settings.deadband)) {
+    if (!d.cadence.due(state, now, force)) {
+        d.fresh = false;
         return;
     }
+    // Not taken (the broker stalls): still fresh, tried again next round.
     if (link_->publish(topics_.state(b.settings.name, d.settings.name), state.dump(), 0, true)) {
-        d.published = std::move(state);
-        d.published_at = now;
-        d.pending = false;
+        d.cadence.published(std::move(state), now);
+        d.fresh = false;
         ++states_published_;
     }
 }
@@ -182,9 +176,9 @@ Clock::time_point Bridge::next_deadline(Clock::time_point now) const {
         if (!b->bus) {
             next = std::min(next, b->next_attempt);
         }
-        next = std::min(next, b->published_at + b->settings.period);
+        next = std::min(next, b->cadence.next());
         for (const auto& d : b->drives) {
-            next = std::min(next, d->published_at + d->settings.period);
+            next = std::min(next, d->cadence.next());
         }
     }
     return std::max(next, now + 10ms);

@@ -11,6 +11,7 @@
 
 #include "bridge.hpp"
 #include "mqtt/backoff.hpp"
+#include "mqtt/cadence.hpp"
 
 namespace drivebus::mqtt {
 
@@ -22,12 +23,11 @@ struct Bridge::DriveLink {
     DriveSettings settings;
     Drive drive;
     Subscription subscription;
-    // The newest snapshot, from dispatch() on the bridge's loop.
+    // The newest snapshot, from dispatch() on the bridge's loop; `fresh` until its state has been
+    // published or found not due.
     std::optional<shm::DriveSnapshot> latest;
     bool fresh = false;
-    Json published;
-    Clock::time_point published_at{};
-    bool pending = true;  // to publish even without change (first time, after a reconnect)
+    Cadence cadence{settings.period, settings.deadband};
 };
 
 struct Bridge::BusLink {
@@ -37,9 +37,7 @@ struct Bridge::BusLink {
     Backoff retry{kBusRetryShortest, kBusRetryLongest};
     Clock::time_point next_attempt{};
     std::string last_error;
-    Json published;
-    Clock::time_point published_at{};
-    bool pending = true;
+    Cadence cadence{settings.period, 0.0};  // set again once `settings` is
 };
 
 }  // namespace drivebus::mqtt
