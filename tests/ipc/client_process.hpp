@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -121,9 +122,45 @@ public:
             const auto state = status.find("State:");
             out += task.path().filename().string() + " " + read("comm") + " wchan=" + read("wchan") + " " +
                    (state == std::string::npos ? "" : status.substr(state + 7, status.find('\n', state) - state - 7)) +
-                   "; ";
+                   futex_of(pid, read("syscall")) + "; ";
         }
         return out;
+    }
+
+    // A thread in futex(2): the word it waits on, the mapping that holds it, and the three ints
+    // from there (a pthread mutex: lock word, count, owner's thread id), so that a hang names
+    // the lock and who holds it. Empty for any other system call.
+    [[nodiscard]] static std::string futex_of(int pid, const std::string& syscall) {
+        std::istringstream in(syscall);
+        std::string number;
+        std::string first;
+        in >> number >> first;
+        if (number != "202" || first.rfind("0x", 0) != 0) {  // futex on x86-64
+            return {};
+        }
+        const auto address = std::stoull(first, nullptr, 16);
+        std::string where = "?";
+        std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
+        for (std::string line; std::getline(maps, line);) {
+            unsigned long long from = 0;
+            unsigned long long to = 0;
+            char dash = 0;
+            std::istringstream l(line);
+            l >> std::hex >> from >> dash >> to;
+            if (address >= from && address < to) {
+                const auto path = line.find('/');
+                where = path == std::string::npos ? "anonymous" : line.substr(path);
+                break;
+            }
+        }
+        std::array<int, 3> words{};
+        std::ifstream mem("/proc/" + std::to_string(pid) + "/mem", std::ios::binary);
+        mem.seekg(static_cast<std::streamoff>(address));
+        const bool read = static_cast<bool>(mem.read(reinterpret_cast<char*>(words.data()), sizeof words));
+        return " futex=" + first + " in " + where +
+               (read ? " [" + std::to_string(words[0]) + " " + std::to_string(words[1]) + " " +
+                           std::to_string(words[2]) + "]"
+                     : std::string(" [unreadable]"));
     }
 
 private:
