@@ -52,6 +52,10 @@ bool thread_alive(pid_t tid) {
     return state != 'Z' && state != 'X' && state != 'x';
 }
 
+bool held(const pthread_mutex_t& mutex) {
+    return std::atomic_ref<const int>(mutex.__data.__lock).load(std::memory_order_acquire) != 0;
+}
+
 pid_t lock_holder(const pthread_mutex_t& mutex) {
     const auto& data = mutex.__data;
     const int word = std::atomic_ref<const int>(data.__lock).load(std::memory_order_acquire);
@@ -73,22 +77,30 @@ void free_abandoned(pthread_mutex_t& mutex) {
 }
 
 std::size_t HeldLockReaper::sweep(std::span<pthread_mutex_t* const> locks) {
-    std::map<const pthread_mutex_t*, pid_t> suspects;
+    std::map<const pthread_mutex_t*, Seen> suspects;
     std::size_t freed = 0;
     for (auto* lock : locks) {
-        const pid_t holder = lock_holder(*lock);
-        if (holder <= 0 || alive_(holder)) {
+        if (!held(*lock)) {
             continue;
         }
-        // Twice in a row, by the same ended thread: nobody is about to let go of it.
-        if (const auto it = suspects_.find(lock); it != suspects_.end() && it->second == holder) {
-            if (lock_holder(*lock) == holder) {
+        const pid_t holder = std::atomic_ref<const int>(lock->__data.__owner).load(std::memory_order_relaxed);
+        if (holder < 0 || (holder > 0 && alive_(holder))) {
+            continue;
+        }
+        // The same ended thread twice in a row: nobody is about to let go of it. No holder at
+        // all, kOwnerlessSweeps times in a row: one died between taking the lock word and
+        // writing its name (a window of a few instructions, which a live thread leaves at once).
+        const auto it = suspects_.find(lock);
+        const int times = it != suspects_.end() && it->second.holder == holder ? it->second.times + 1 : 1;
+        if (times >= (holder == 0 ? kOwnerlessSweeps : 2)) {
+            if (held(*lock) &&
+                std::atomic_ref<const int>(lock->__data.__owner).load(std::memory_order_relaxed) == holder) {
                 free_abandoned(*lock);
                 ++freed;
             }
             continue;
         }
-        suspects.emplace(lock, holder);
+        suspects.emplace(lock, Seen{holder, times});
     }
     suspects_ = std::move(suspects);
     return freed;

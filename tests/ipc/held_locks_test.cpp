@@ -71,6 +71,54 @@ pid_t die_holding(pthread_mutex_t* mutex) {
     return child;
 }
 
+// A child killed just after it took the lock word, before glibc wrote its name and the
+// recursion count: the lock word is taken as glibc's lock does it (0 to 1), and nothing else.
+void die_before_naming_itself(pthread_mutex_t* mutex) {
+    const pid_t child = ::fork();
+    if (child == 0) {
+        int expected = 0;
+        (void)std::atomic_ref<int>(mutex->__data.__lock).compare_exchange_strong(expected, 1);
+        ::_exit(0);
+    }
+    ::waitpid(child, nullptr, 0);
+}
+
+TEST(HeldLocks, ALockHeldByNobodyIsFreedAfterEnoughSweepsToRuleOutALiveThreadAboutToNameItself) {
+    SharedMutex m;
+    die_before_naming_itself(m.get());
+    EXPECT_TRUE(held(*m.get()));
+    EXPECT_EQ(lock_holder(*m.get()), 0);
+    EXPECT_EQ(::pthread_mutex_trylock(m.get()), EBUSY);
+    HeldLockReaper reaper;
+    const std::array locks{m.get()};
+    for (int pass = 1; pass < HeldLockReaper::kOwnerlessSweeps; ++pass) {
+        EXPECT_EQ(reaper.sweep(locks), 0U) << "pass " << pass;
+    }
+    EXPECT_EQ(reaper.sweep(locks), 1U);
+    EXPECT_FALSE(held(*m.get()));
+    ASSERT_EQ(::pthread_mutex_trylock(m.get()), 0);
+    EXPECT_EQ(::pthread_mutex_unlock(m.get()), 0);
+    EXPECT_EQ(::pthread_mutex_destroy(m.get()), 0);
+}
+
+TEST(HeldLocks, ALockThatWasFreeOnePassStartsItsCountAgain) {
+    SharedMutex m;
+    HeldLockReaper reaper;
+    const std::array locks{m.get()};
+    die_before_naming_itself(m.get());
+    for (int pass = 1; pass < HeldLockReaper::kOwnerlessSweeps; ++pass) {
+        EXPECT_EQ(reaper.sweep(locks), 0U);
+    }
+    // Let go (as a live thread does, a moment after): the count so far no longer counts.
+    std::atomic_ref<int>(m.get()->__data.__lock).store(0);
+    EXPECT_EQ(reaper.sweep(locks), 0U);
+    die_before_naming_itself(m.get());
+    for (int pass = 1; pass < HeldLockReaper::kOwnerlessSweeps; ++pass) {
+        EXPECT_EQ(reaper.sweep(locks), 0U) << "pass " << pass;
+    }
+    EXPECT_EQ(reaper.sweep(locks), 1U);
+}
+
 TEST(HeldLocks, ALockAKilledProcessHeldIsFreedOnTheSecondSweep) {
     SharedMutex m;
     const pid_t child = die_holding(m.get());

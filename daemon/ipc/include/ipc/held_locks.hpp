@@ -10,10 +10,13 @@
 //
 // The mutexes are glibc's: a held one names its owner thread. A lock whose owner thread has
 // ended, seen so on two sweeps in a row, is handed back as that thread's unlock would have
-// done, and its waiters are woken. Only the process that holds RouDi (an embedded RouDi) can
-// reach every port; an external iox-roudi gets no such help. The thread id is the holder's PID
-// namespace's: drivebusd sweeps only while every registered runtime is in its own
-// (registrants.hpp).
+// done, and its waiters are woken. glibc takes the lock word first and writes the owner's name
+// (and the recursion count) just after: a client killed between the two leaves a lock held by
+// nobody, which no live thread shows for longer than those few instructions; seen so on
+// kOwnerlessSweeps sweeps in a row, it is handed back too. Only the process that holds RouDi
+// (an embedded RouDi) can reach every port; an external iox-roudi gets no such help. The
+// thread id is the holder's PID namespace's: drivebusd sweeps only while every registered
+// runtime is in its own (registrants.hpp).
 #pragma once
 
 #include <pthread.h>
@@ -35,6 +38,8 @@ namespace drivebus::ipc {
 // hidden), alive.
 [[nodiscard]] bool thread_alive(pid_t tid);
 
+// Whether `mutex`'s lock word is taken.
+[[nodiscard]] bool held(const pthread_mutex_t& mutex);
 // The holder of `mutex` when it is held and names one; 0 otherwise.
 [[nodiscard]] pid_t lock_holder(const pthread_mutex_t& mutex);
 
@@ -47,8 +52,12 @@ public:
     using Alive = std::function<bool(pid_t)>;
     explicit HeldLockReaper(Alive alive = thread_alive) : alive_(std::move(alive)) {}
 
-    // One pass over `locks`: frees those held by the same ended thread as on the last pass.
-    // Returns how many it freed.
+    // Sweeps in a row that find a lock held by no thread before it is freed: at the reaper's
+    // 100 ms, 0.4 s and more, against the few instructions a live thread spends so.
+    static constexpr int kOwnerlessSweeps = 5;
+
+    // One pass over `locks`: frees those held by the same ended thread as on the last pass, and
+    // those held by nobody on the last kOwnerlessSweeps passes. Returns how many it freed.
     std::size_t sweep(std::span<pthread_mutex_t* const> locks);
 
     // Forgets what the last pass suspected: the next pass starts afresh.
@@ -56,7 +65,11 @@ public:
 
 private:
     Alive alive_;
-    std::map<const pthread_mutex_t*, pid_t> suspects_;  // held by an ended thread last pass
+    struct Seen {
+        pid_t holder = 0;  // 0: nobody
+        int times = 0;     // passes in a row
+    };
+    std::map<const pthread_mutex_t*, Seen> suspects_;  // held by an ended thread or nobody
 };
 
 // Every lock of every port RouDi's port pool holds (clients, servers, publishers, subscribers).
