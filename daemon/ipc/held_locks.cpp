@@ -83,7 +83,7 @@ std::size_t HeldLockReaper::sweep(std::span<pthread_mutex_t* const> locks) {
         if (!held(*lock)) {
             continue;
         }
-        const pid_t holder = std::atomic_ref<const int>(lock->__data.__owner).load(std::memory_order_relaxed);
+        const pid_t holder = lock_holder(*lock);
         if (holder < 0 || (holder > 0 && alive_(holder))) {
             continue;
         }
@@ -93,8 +93,7 @@ std::size_t HeldLockReaper::sweep(std::span<pthread_mutex_t* const> locks) {
         const auto it = suspects_.find(lock);
         const int times = it != suspects_.end() && it->second.holder == holder ? it->second.times + 1 : 1;
         if (times >= (holder == 0 ? kOwnerlessSweeps : 2)) {
-            if (held(*lock) &&
-                std::atomic_ref<const int>(lock->__data.__owner).load(std::memory_order_relaxed) == holder) {
+            if (held(*lock) && lock_holder(*lock) == holder) {
                 free_abandoned(*lock);
                 ++freed;
             }
