@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
+#include "bridge.hpp"
+
 #include <poll.h>
 
 #include <algorithm>
+#include <vector>
 
-#include "bridge.hpp"
-#include "bridge_links.hpp"
 #include "log/log.hpp"
 
 namespace drivebus::mqtt {
@@ -12,41 +13,29 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr auto kIdleWake = 1s;
-
-CommanderLimits limits_of(const Limits& limits) {
-    return CommanderLimits{.max_payload = limits.max_payload,
-                           .command_queue = limits.command_queue,
-                           .max_command_age = limits.max_command_age};
+void log_note(const RelayNote& n) {
+    const log::Fields fields{.bus = n.bus, .drive = n.drive};
+    switch (n.level) {
+    case RelayNote::Level::Debug: log::debug(n.text, fields); break;
+    case RelayNote::Level::Notice: log::notice(n.text, fields); break;
+    case RelayNote::Level::Warning: log::warning(n.text, fields); break;
+    }
 }
 
 }  // namespace
 
-Bridge::Bridge(const Config& config)
-    : config_(config), topics_(config.node), commander_(limits_of(config.limits), fleet_) {
-    for (const auto& b : config_.buses) {
-        auto link = std::make_unique<BusLink>();
-        link->settings = b;
-        link->cadence = Cadence(b.period, 0.0);
-        buses_.push_back(std::move(link));
-    }
+Bridge::Bridge(const Config& config) : config_(config), topics_(config.node) {
     link_ = std::make_unique<BrokerLink>(
         config_, BrokerLink::Callbacks{.connected = [this] { on_connected(); },
                                        .message = [this](std::string_view t, std::string_view p,
                                                          bool retained) { on_message(t, p, retained); }});
+    relay_ = std::make_unique<Relay>(config_, *link_, daemon_, log_note);
 }
 
 Bridge::~Bridge() {
     stop();
-    link_.reset();
-    // The buses' subscriptions call back into this object and into their drive links: ended
-    // first, then the links go (a command's completions still pending go uncalled with them).
-    for (auto& b : buses_) {
-        for (auto& d : b->drives) {
-            d->subscription.reset();
-        }
-    }
-    buses_.clear();
+    link_.reset();   // its network thread ends: nothing queues any more
+    relay_.reset();  // the drives' subscriptions, then the buses
 }
 
 void Bridge::stop() {
@@ -66,122 +55,30 @@ void Bridge::on_connected() {
     wake();
 }
 
-void Bridge::connect_bus(BusLink& b, Clock::time_point now) {
-    ConnectOptions options;
-    options.application = "drivebus-mqtt";
-    options.delivery = Delivery::Dispatch;  // on the bridge's loop: no thread of the library's
-    auto bus = Bus::connect(b.settings.name, options);
-    std::vector<std::shared_ptr<DriveLink>> drives;
-    std::string error;
-    if (bus) {
-        auto status = bus->status(2s);
-        if (!status) {
-            error = status.error().message;
-        } else {
-            const std::size_t count = std::min<std::size_t>(status->drive_count, status->drives.size());
-            for (std::size_t i = 0; i < count; ++i) {
-                const std::string name(shm::view(status->drives[i].name));
-                auto drive = bus->drive(name);
-                if (!drive) {
-                    error = drive.error().message;
-                    break;
-                }
-                const auto settings = b.settings.drive(name);
-                drives.push_back(
-                    std::make_shared<DriveLink>(DriveLink{.settings = settings,
-                                                          .drive = std::move(*drive),
-                                                          .subscription = {},
-                                                          .latest = {},
-                                                          .fresh = false,
-                                                          .cadence = Cadence(settings.period, settings.deadband)}));
-            }
-        }
-    } else {
-        error = bus.error().message;
-    }
-    if (!error.empty()) {
-        if (b.retry.failures() == 0) {
-            log::warning("bus " + b.settings.name + ": " + error + "; retrying with back-off",
-                         {.bus = b.settings.name});
-        }
-        b.next_attempt = now + b.retry.next(0.5);
-        if (b.last_error != error) {
-            b.last_error = error;
-            b.cadence.again();
-        }
+// On the network thread: queued for the loop, which wakes. Bounded: past the Commander's own
+// queue and as many again arriving at once, a command is refused here, without parsing more
+// than its id.
+void Bridge::on_message(std::string_view topic, std::string_view payload, bool retained) {
+    const auto received = std::chrono::system_clock::now();
+    const auto arrived = Clock::now();
+    auto target = topics_.parse_set(topic);
+    if (!target) {
         return;
     }
-    for (const auto& d : b.settings.drives) {
-        if (std::ranges::none_of(drives, [&](const auto& l) { return l->settings.name == d.name; })) {
-            log::warning("bus " + b.settings.name + ": drivebusd has no drive '" + d.name + "' (configured here)",
-                         {.bus = b.settings.name});
-        }
-    }
-    b.retry.reset();
-    b.last_error.clear();
-    for (auto& d : drives) {
-        DriveLink* raw = d.get();
-        // In dispatch(), on the loop's thread: the loop publishes what changed after it.
-        d->subscription = d->drive.on_snapshot([raw](const shm::DriveSnapshot& s) {
-            raw->latest = s;
-            raw->fresh = true;
-        });
-    }
-    log::notice("bus " + b.settings.name + ": bridging " + std::to_string(drives.size()) + " drives",
-                {.bus = b.settings.name});
-    b.bus.emplace(std::move(*bus));
-    b.drives = std::move(drives);
-    b.cadence.again();
-}
-
-void Bridge::publish_bus(BusLink& b, Clock::time_point now, bool force) {
-    Json status;
-    if (!b.bus) {
-        status = bus_unreachable(b.settings.name, b.last_error);
-    } else {
-        auto s = b.bus->status();
-        if (!s) {
+    {
+        std::lock_guard lock(mutex_);
+        if (inbox_.size() < 2 * config_.limits.command_queue + 16) {
+            inbox_.push_back(Inbound{std::move(*target), std::string(payload), retained, received, arrived});
+            wake();
             return;
         }
-        status = bus_status(*s, b.bus->daemon_alive());
     }
-    if (!b.cadence.due(status, now, force)) {
-        return;
-    }
-    if (link_->publish(topics_.bus_status(b.settings.name), status.dump(), 0, true)) {
-        b.cadence.published(std::move(status), now);
-    }
-}
-
-void Bridge::publish_drive(BusLink& b, DriveLink& d, Clock::time_point now, bool force) {
-    if (!d.latest || (!d.fresh && !force && !d.cadence.due_by_time(now))) {
-        return;
-    }
-    auto state = drive_state(*d.latest, d.drive.profile());
-    if (!d.cadence.due(state, now, force)) {
-        d.fresh = false;
-        return;
-    }
-    // Not taken (the broker stalls): still fresh, tried again next round.
-    if (link_->publish(topics_.state(b.settings.name, d.settings.name), state.dump(), 0, true)) {
-        d.cadence.published(std::move(state), now);
-        d.fresh = false;
-        ++states_published_;
-    }
-}
-
-Clock::time_point Bridge::next_deadline(Clock::time_point now) const {
-    auto next = now + kIdleWake;
-    for (const auto& b : buses_) {
-        if (!b->bus) {
-            next = std::min(next, b->next_attempt);
-        }
-        next = std::min(next, b->cadence.next());
-        for (const auto& d : b->drives) {
-            next = std::min(next, d->cadence.next());
-        }
-    }
-    return std::max(next, now + 10ms);
+    const auto parsed = parse_command(payload, config_.limits.max_payload);
+    const Json id = parsed ? parsed->id : parsed.error().id;
+    link_->publish(
+        topics_.result(target->bus, target->drive),
+        result_error(id, "busy", "the bridge has more commands arriving than it takes: try again later").dump(), 1,
+        false);
 }
 
 void Bridge::run() {
@@ -189,47 +86,35 @@ void Bridge::run() {
     std::vector<pollfd> fds;
     for (;;) {
         fds.assign(1, pollfd{.fd = wake_.fd(), .events = POLLIN, .revents = 0});
-        for (const auto& b : buses_) {
-            if (b->bus) {
-                fds.push_back(pollfd{.fd = b->bus->descriptor(), .events = POLLIN, .revents = 0});
-            }
+        for (const int fd : relay_->descriptors()) {
+            fds.push_back(pollfd{.fd = fd, .events = POLLIN, .revents = 0});
         }
         const auto before = Clock::now();
-        const auto wait = std::chrono::ceil<std::chrono::milliseconds>(next_deadline(before) - before);
+        // At least 10 ms: a deadline just passed does not spin the loop.
+        const auto wait = std::max(std::chrono::ceil<std::chrono::milliseconds>(relay_->next_deadline(before) - before),
+                                   std::chrono::milliseconds(10));
         (void)::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));  // EINTR: round again
         wake_.drain();
-        for (const auto& b : buses_) {
-            if (b->bus) {
-                b->bus->dispatch();  // snapshots, statuses, commands' answers; returns at once if none
-            }
-        }
+        relay_->dispatch(Clock::now());  // snapshots, statuses, commands' answers; returns at once if none
         bool republish = false;
+        std::deque<Inbound> taken;
         {
             std::lock_guard lock(mutex_);
             if (stopping_) {
                 break;
             }
             republish = std::exchange(republish_, false);
+            taken.swap(inbox_);
         }
-        take_messages();
-        const auto now = Clock::now();
-        for (auto& b : buses_) {
-            if (!b->bus && now >= b->next_attempt) {
-                connect_bus(*b, now);
-            }
-            if (!link_->connected()) {
-                continue;
-            }
-            publish_bus(*b, now, republish);
-            for (auto& d : b->drives) {
-                publish_drive(*b, *d, now, republish);
-            }
+        for (auto& m : taken) {
+            relay_->message(m.target, m.payload, m.retained, m.received, m.arrived);
         }
+        relay_->turn(Clock::now(), republish);
     }
     link_->stop();
     const auto c = link_->counters();
-    const auto& commands = commander_.counters();
-    log::notice("stopped: " + std::to_string(states_published_) + " states published, " +
+    const auto& commands = relay_->commands();
+    log::notice("stopped: " + std::to_string(relay_->counters().states_published) + " states published, " +
                 std::to_string(commands.commands) + " commands carried out, " +
                 std::to_string(commands.commands_refused) + " refused, " + std::to_string(c.dropped) +
                 " messages dropped, " + std::to_string(c.connections) + " broker connections");

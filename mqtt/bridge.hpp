@@ -1,29 +1,20 @@
 // SPDX-License-Identifier: Apache-2.0
-// The bridge between drivebusd (libdrivebus) and the broker: each configured bus's drives'
-// snapshots become retained state messages (on change beyond the deadband, and at least every
-// period), its status a retained status message; commands from the broker go to the pure
-// Commander (mqtt/commander.hpp), whose steps become libdrivebus requests and whose results are
-// published. All of it runs on one event loop (run()): libdrivebus on Delivery::Dispatch, its
-// requests answered by callback; the broker's network thread (libmosquitto's) only queues the
-// messages and wakes it.
+// drivebus-mqtt's loop: the Relay (mqtt/relay.hpp, where every rule is) on poll(), with the
+// broker on libmosquitto (broker_link.hpp) and drivebusd on libdrivebus (daemon_link.hpp).
+// libdrivebus runs on Delivery::Dispatch, so its callbacks run on this loop; the broker's
+// network thread (libmosquitto's) only queues the messages and wakes it.
 #pragma once
 
-#include <atomic>
 #include <deque>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <string>
 #include <string_view>
-#include <vector>
 
 #include "broker_link.hpp"
-#include "drivebus/client.hpp"
-#include "mqtt/backoff.hpp"
-#include "mqtt/commander.hpp"
+#include "daemon_link.hpp"
 #include "mqtt/config.hpp"
-#include "mqtt/freshness.hpp"
-#include "mqtt/payload.hpp"
+#include "mqtt/relay.hpp"
 #include "mqtt/topics.hpp"
 #include "sys/event_fd.hpp"
 
@@ -43,18 +34,6 @@ public:
     void stop();
 
 private:
-    struct DriveLink;
-    struct BusLink;
-    // What the Commander reads of the buses: the links the loop keeps.
-    class Fleet final : public Roster {
-    public:
-        explicit Fleet(const Bridge& bridge) : bridge_(bridge) {}
-        [[nodiscard]] bool has_bus(std::string_view bus) const override;
-        [[nodiscard]] std::optional<Drive> drive(std::string_view bus, std::string_view drive) const override;
-
-    private:
-        const Bridge& bridge_;
-    };
     // A message on a set topic, as the network thread took it.
     struct Inbound {
         Topics::Target target;
@@ -66,24 +45,13 @@ private:
 
     void on_connected();
     void on_message(std::string_view topic, std::string_view payload, bool retained);
-    // The messages the network thread queued, to the Commander.
-    void take_messages();
-    // Publishes the Commander's results and sends its steps to drivebusd.
-    void carry(const CommanderEffects& effects);
     void wake() const { wake_.signal(); }
-    void connect_bus(BusLink& bus, Clock::time_point now);
-    void publish_bus(BusLink& bus, Clock::time_point now, bool force);
-    void publish_drive(BusLink& bus, DriveLink& drive, Clock::time_point now, bool force);
-    [[nodiscard]] Clock::time_point next_deadline(Clock::time_point now) const;
-    [[nodiscard]] DriveLink* find(std::string_view bus, std::string_view drive) const;
 
     const Config& config_;
     Topics topics_;
-    std::vector<std::unique_ptr<BusLink>> buses_;
     std::unique_ptr<BrokerLink> link_;
-    Fleet fleet_{*this};
-    Commander commander_;
-    std::uint64_t states_published_ = 0;
+    DaemonLink daemon_;
+    std::unique_ptr<Relay> relay_;
 
     mutable std::mutex mutex_;  // the flags and the messages the network thread queued
     sys::EventFd wake_{"eventfd to wake the bridge's loop"};

@@ -19,6 +19,7 @@
 
 #include "mqtt/backoff.hpp"
 #include "mqtt/config.hpp"
+#include "mqtt/ports.hpp"
 #include "mqtt/topics.hpp"
 
 struct mosquitto;
@@ -32,7 +33,7 @@ struct LinkCounters {
     std::uint64_t dropped = 0;  // publishes dropped: no connection, or too many unacknowledged
 };
 
-class BrokerLink {
+class BrokerLink final : public Broker {
 public:
     static constexpr std::size_t kMaxUnwritten = 256;
 
@@ -43,11 +44,7 @@ public:
     };
 
     BrokerLink(const Config& config, Callbacks callbacks);
-    ~BrokerLink();
-    BrokerLink(const BrokerLink&) = delete;
-    BrokerLink& operator=(const BrokerLink&) = delete;
-    BrokerLink(BrokerLink&&) = delete;
-    BrokerLink& operator=(BrokerLink&&) = delete;
+    ~BrokerLink() override;
 
     void start();
     // Publishes "offline" (a clean disconnect does not send the will), disconnects, joins.
@@ -56,8 +53,8 @@ public:
     // False when dropped: not connected, `results_in_flight` QoS 1 messages unacknowledged, or
     // (QoS 0) kMaxUnwritten messages not yet written to the socket (a broker that stopped
     // reading without closing the connection).
-    bool publish(const std::string& topic, std::string_view payload, int qos, bool retain);
-    [[nodiscard]] bool connected() const noexcept { return connected_.load(); }
+    bool publish(const std::string& topic, std::string_view payload, int qos, bool retain) override;
+    [[nodiscard]] bool connected() const noexcept override { return connected_.load(); }
     [[nodiscard]] LinkCounters counters() const;
 
 private:

@@ -61,19 +61,6 @@ TEST_F(MqttBridge, ACommandReachesTheDriveAndItsResultComesBack) {
     EXPECT_EQ(parsed(*held)["lease"]["holder"].get<std::string>().rfind("drivebus-mqtt", 0), 0U) << held->payload;
 }
 
-TEST_F(MqttBridge, ACommandToADriveNotEnabledIsRefusedSayingSo) {
-    start_bridge();
-    ASSERT_TRUE(online_state(20s)) << bridge_output();
-    const auto before = stack_.sim_register(2, "W400");
-    ASSERT_EQ(mosquitto_pub(broker_.port(), drive_topic("fan", "set"), R"({"id": 5, "verb": "run"})").first, 0);
-    const auto r = result("fan", 5, 20s);
-    ASSERT_TRUE(r) << bridge_output();
-    EXPECT_EQ((*r)["ok"], false);
-    EXPECT_EQ((*r)["reason"], "commands_disabled");
-    EXPECT_NE((*r)["error"].get<std::string>().find("not enabled"), std::string::npos);
-    EXPECT_EQ(stack_.sim_register(2, "W400"), before);
-}
-
 TEST_F(MqttBridge, HostileCommandsGetAResultAndNoCrash) {
     start_bridge("[limits]\ncommand_queue = 4\nmax_payload = 1024\n");
     ASSERT_TRUE(online_state(20s)) << bridge_output();

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // When a retained message (a drive's state, a bus's status) is published again. Pure: the value
-// and the time are arguments; the bridge (mqtt/bridge.cpp) asks before each publication and
+// and the time are arguments; the relay (mqtt/relay.hpp) asks before each publication and
 // says when the broker took one, tests drive it on a virtual clock (tests/mqtt/cadence_test.cpp).
 //
 // Due: the first time; after a change beyond the deadband (significant_change, payload.hpp);

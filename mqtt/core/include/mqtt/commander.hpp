@@ -3,7 +3,7 @@
 // flag, when it arrived), refused at once or queued, and carried out one at a time, each action
 // (a register write, the lease's renewal or release) handed out as a step for drivebusd whose
 // answer comes back with its ticket; results out for .../result. No broker, no drivebusd, no
-// clock, no log: the bridge (mqtt/bridge_commands.cpp) carries the steps and results out, tests
+// clock, no log: the relay (mqtt/relay.hpp) carries the steps and results out, tests
 // drive it on a virtual clock (tests/mqtt/commander_test.cpp).
 //
 // The rules (docs/mqtt.md, "Commands"):
