@@ -233,4 +233,21 @@ void expect_in_man_page(std::string_view man, const std::vector<SectionReference
     }
 }
 
+void expect_reader_takes_every_key(const std::vector<SectionReference>& sections, const FileWith& with,
+                                   const ReaderError& error) {
+    for (const auto& section : sections) {
+        const auto valid = error(with(section, "", ""));
+        ASSERT_FALSE(valid) << section.name << ": the valid file was refused: " << *valid;
+        for (const auto& key : section.keys) {
+            const auto refused = error(with(section, key.key, "2024-01-01"));
+            ASSERT_TRUE(refused) << section.name << ": key " << key.key << " = a date was accepted";
+            EXPECT_EQ(refused->find("unknown key"), std::string::npos) << section.name << ": " << *refused;
+            EXPECT_NE(refused->find(key.key), std::string::npos) << section.name << ": " << *refused;
+        }
+        const auto unknown = error(with(section, "no_such_key", "1"));
+        ASSERT_TRUE(unknown) << section.name << ": a key no table lists was accepted";
+        EXPECT_NE(unknown->find("unknown key 'no_such_key'"), std::string::npos) << section.name << ": " << *unknown;
+    }
+}
+
 }  // namespace drivebus::docs
