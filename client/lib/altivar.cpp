@@ -34,6 +34,63 @@ std::string short_meaning(const std::string& text) {
     return colon == std::string::npos ? text : text.substr(0, colon);
 }
 
+// A register and the word to write there.
+struct Word {
+    std::uint16_t address = 0;
+    std::uint16_t value = 0;
+};
+
+std::expected<Word, Error> reference_word(const Drive& drive, double hz) {
+    const auto* profile = drive.profile();
+    if (profile == nullptr) {
+        return std::unexpected(make_error(ErrorKind::Unsupported, "drive '" + drive.name() + "': it has no profile"));
+    }
+    const auto reference = frequency_reference(*profile);
+    if (!reference) {
+        return std::unexpected(
+            make_error(ErrorKind::Unsupported, "drive '" + drive.name() + "': " + reference.error()));
+    }
+    const auto* r = *reference;
+    const auto raw = r->from_engineering(hz);
+    if (!raw || !r->in_range(*raw)) {
+        return std::unexpected(make_error(ErrorKind::InvalidArgument, "drive '" + drive.name() +
+                                                                          "': " + std::to_string(hz) + " " + r->unit +
+                                                                          " is outside what " + r->name + " takes"));
+    }
+    return Word{.address = *r->address, .value = *raw};
+}
+
+std::expected<Word, Error> command_word(const Drive& drive, const std::optional<std::uint16_t> ControlInfo::* word,
+                                        const char* what) {
+    const auto* profile = drive.profile();
+    if (profile == nullptr || !profile->control || !(profile->control.value().*word) ||
+        profile->control->command.empty()) {
+        return std::unexpected(make_error(ErrorKind::Unsupported, "drive '" + drive.name() + "': profile " +
+                                                                      (profile ? profile->type : std::string("?")) +
+                                                                      " gives no command word to " + what));
+    }
+    const auto address = drive.resolve(profile->control->command);
+    if (!address) {
+        return std::unexpected(address.error());
+    }
+    return Word{.address = *address, .value = *(profile->control.value().*word)};
+}
+
+std::expected<void, Error> write(const Drive& drive, const std::expected<Word, Error>& word, WriteOptions options) {
+    if (!word) {
+        return std::unexpected(word.error());
+    }
+    return drive.write(word->address, std::span(&word->value, 1), options);
+}
+
+void async_write(const Drive& drive, const std::expected<Word, Error>& word, Drive::Done done, WriteOptions options) {
+    if (!word) {
+        done(std::unexpected(word.error()));
+        return;
+    }
+    drive.async_write(word->address, std::span(&word->value, 1), std::move(done), options);
+}
+
 }  // namespace
 
 DriveState decode_state(const Profile& profile, const shm::DriveSnapshot& s) {
@@ -83,37 +140,12 @@ DriveState decode_state(const Profile& profile, const shm::DriveSnapshot& s) {
 }
 
 std::expected<void, Error> Altivar::set_frequency(double hz, WriteOptions options) const {
-    const auto* profile = drive_.profile();
-    if (profile == nullptr) {
-        return std::unexpected(make_error(ErrorKind::Unsupported, "drive '" + drive_.name() + "': it has no profile"));
-    }
-    const auto reference = frequency_reference(*profile);
-    if (!reference) {
-        return std::unexpected(
-            make_error(ErrorKind::Unsupported, "drive '" + drive_.name() + "': " + reference.error()));
-    }
-    const auto* r = *reference;
-    const auto raw = r->from_engineering(hz);
-    if (!raw || !r->in_range(*raw)) {
-        return std::unexpected(make_error(ErrorKind::InvalidArgument, "drive '" + drive_.name() +
-                                                                          "': " + std::to_string(hz) + " " + r->unit +
-                                                                          " is outside what " + r->name + " takes"));
-    }
-    const std::uint16_t word = *raw;
-    return drive_.write(*r->address, std::span(&word, 1), options);
+    return write(drive_, reference_word(drive_, hz), options);
 }
 
 std::expected<void, Error> Altivar::command(const std::optional<std::uint16_t> ControlInfo::* word, const char* what,
                                             WriteOptions options) const {
-    const auto* profile = drive_.profile();
-    if (profile == nullptr || !profile->control || !(profile->control.value().*word) ||
-        profile->control->command.empty()) {
-        return std::unexpected(make_error(ErrorKind::Unsupported, "drive '" + drive_.name() + "': profile " +
-                                                                      (profile ? profile->type : std::string("?")) +
-                                                                      " gives no command word to " + what));
-    }
-    const std::uint16_t value = *(profile->control.value().*word);
-    return drive_.write(profile->control->command, std::span(&value, 1), options);
+    return write(drive_, command_word(drive_, word, what), options);
 }
 
 std::expected<void, Error> Altivar::run_forward(WriteOptions options) const {
@@ -130,6 +162,25 @@ std::expected<void, Error> Altivar::freewheel(WriteOptions options) const {
 }
 std::expected<void, Error> Altivar::reset_fault(WriteOptions options) const {
     return command(&ControlInfo::fault_reset, "reset a fault", options);
+}
+
+void Altivar::async_set_frequency(double hz, Drive::Done done, WriteOptions options) const {
+    async_write(drive_, reference_word(drive_, hz), std::move(done), options);
+}
+void Altivar::async_run_forward(Drive::Done done, WriteOptions options) const {
+    async_write(drive_, command_word(drive_, &ControlInfo::run_forward, "run forward"), std::move(done), options);
+}
+void Altivar::async_run_reverse(Drive::Done done, WriteOptions options) const {
+    async_write(drive_, command_word(drive_, &ControlInfo::run_reverse, "run in reverse"), std::move(done), options);
+}
+void Altivar::async_stop(Drive::Done done, WriteOptions options) const {
+    async_write(drive_, command_word(drive_, &ControlInfo::stop, "stop"), std::move(done), options);
+}
+void Altivar::async_freewheel(Drive::Done done, WriteOptions options) const {
+    async_write(drive_, command_word(drive_, &ControlInfo::freewheel, "freewheel"), std::move(done), options);
+}
+void Altivar::async_reset_fault(Drive::Done done, WriteOptions options) const {
+    async_write(drive_, command_word(drive_, &ControlInfo::fault_reset, "reset a fault"), std::move(done), options);
 }
 
 std::expected<DriveState, Error> Altivar::state(Milliseconds wait) const {

@@ -167,6 +167,12 @@ bool Bus::Impl::wait(std::unique_lock<std::mutex>& lock, Clock::time_point deadl
     if (options.delivery == Delivery::Thread) {
         return changed.wait_until(lock, deadline, done);
     }
+    // What has arrived since the last dispatch() counts first: a blocking call sees the newest
+    // snapshot and status, as with Delivery::Thread (whose listener keeps them current), not
+    // what the caller's last dispatch() left.
+    lock.unlock();
+    dispatch();
+    lock.lock();
     for (;;) {
         if (done()) {
             return true;

@@ -54,6 +54,16 @@ public:
     // The latest snapshot, decoded (waits up to `wait` for the first).
     [[nodiscard]] std::expected<DriveState, Error> state(Milliseconds wait = Milliseconds(1000)) const;
 
+    // The same writes, completed by `done` in a later Bus::dispatch() (Delivery::Dispatch, as
+    // Drive::async_write). What is refused before anything is sent (no profile, no such command
+    // word, a frequency out of range) calls `done` at once, before the call returns.
+    void async_set_frequency(double hz, Drive::Done done, WriteOptions options = {}) const;
+    void async_run_forward(Drive::Done done, WriteOptions options = {}) const;
+    void async_run_reverse(Drive::Done done, WriteOptions options = {}) const;
+    void async_stop(Drive::Done done, WriteOptions options = {}) const;
+    void async_freewheel(Drive::Done done, WriteOptions options = {}) const;
+    void async_reset_fault(Drive::Done done, WriteOptions options = {}) const;
+
 private:
     [[nodiscard]] std::expected<void, Error> command(const std::optional<std::uint16_t> ControlInfo::* word,
                                                      const char* what, WriteOptions options) const;

@@ -95,8 +95,9 @@ enum class Delivery : std::uint8_t {
     Thread,
     // On the caller's thread, in Bus::dispatch(), which the application calls whenever
     // Bus::descriptor() is readable: the library starts no thread. Such a Bus belongs to the
-    // thread of that loop. Its blocking calls (read(), write(), wait_snapshot(), ...) dispatch
-    // while they wait, so other callbacks may run inside them.
+    // thread of that loop. Its blocking calls (read(), write(), wait_snapshot(), status(), ...)
+    // take what has arrived first and dispatch while they wait, so other callbacks may run
+    // inside them.
     Dispatch,
 };
 
