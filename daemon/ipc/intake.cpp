@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "iceoryx_posh/popo/listener.hpp"
 #include "iceoryx_posh/popo/untyped_server.hpp"
@@ -45,7 +46,7 @@ struct Intake::Impl {
           server(port->server),
           core(
               b, leases, [this](const master::ClientRequest& r) { return loop.submit(r).has_value(); },
-              std::move(journal), [](const RequestHeader& route) { return ClientQueue::of(route); },
+              std::move(journal), [this](RouteId route) { return ClientQueue::of(routes.at(route)); },
               [](const Note& note) { write_note(note); }) {
         if (listener
                 .attachEvent(server, iox::popo::ServerEvent::REQUEST_RECEIVED,
@@ -69,14 +70,25 @@ struct Intake::Impl {
     // On iceoryx's listener thread: only wakes the ipc thread.
     static void on_request(iox::popo::UntypedServer* /*server*/, Impl* self) { self->ready.signal(); }
 
-    void send(RequestHeader& route, const shm::Response& response) {
-        auto loaned = server.loan(&route, sizeof(shm::Response), alignof(shm::Response));
-        if (loaned.has_error()) {
-            return;  // the client has gone: nothing to answer
+    // A request's header, kept under an id of its own until the request's one answer is sent.
+    RouteId keep(RequestHeader&& header) {
+        const RouteId id = next_route++;
+        routes.emplace(id, std::move(header));
+        return id;
+    }
+    // Answers through `route`, which is done with.
+    void send(RouteId route, const shm::Response& response) {
+        const auto it = routes.find(route);
+        if (it == routes.end()) {
+            return;
         }
-        std::memcpy(loaned.value(), &response, sizeof response);
-        (void)server.send(loaned.value());
-        ++answers;
+        auto loaned = server.loan(&it->second, sizeof(shm::Response), alignof(shm::Response));
+        if (!loaned.has_error()) {  // else the client has gone: nothing to answer
+            std::memcpy(loaned.value(), &response, sizeof response);
+            (void)server.send(loaned.value());
+            ++answers;
+        }
+        routes.erase(it);
     }
     std::uint64_t answers = 0;
 
@@ -84,7 +96,9 @@ struct Intake::Impl {
     sys::EventFd ready;
     std::shared_ptr<Intake::Server> port;
     iox::popo::UntypedServer& server;
-    IntakeCore<RequestHeader> core;
+    std::unordered_map<RouteId, RequestHeader> routes;  // of the requests not yet answered
+    RouteId next_route = 0;
+    IntakeCore core;
     iox::popo::Listener listener;
     bool attached = true;
 };
@@ -120,7 +134,7 @@ void Intake::take(rtu::Instant now) {
             request.size = static_cast<std::uint32_t>(size);
         }
         // The header only routes the response: keep a copy, give the chunk back now.
-        RequestHeader route = std::move(*const_cast<RequestHeader*>(header));
+        const RouteId route = impl_->keep(std::move(*const_cast<RequestHeader*>(header)));
         impl_->server.releaseRequest(payload);
         if (const auto now_answer = impl_->core.accept(request, route, impl_->loop.up(), now)) {
             impl_->send(route, *now_answer);

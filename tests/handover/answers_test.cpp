@@ -23,7 +23,7 @@ namespace {
 using namespace std::chrono_literals;
 
 // The test's "route" for each request: its number, to count its answers.
-using Route = std::size_t;
+using Route = ipc::RouteId;
 
 shm::Request read_fd00(std::uint64_t client) {
     shm::Request r;
@@ -54,7 +54,7 @@ protected:
     config::BusConfig config = bus<config::BusConfig>();
     std::unique_ptr<bus::BusLoop> loop;
     std::unique_ptr<ipc::LeasePolicy> leases;
-    std::unique_ptr<ipc::IntakeCore<Route>> intake;
+    std::unique_ptr<ipc::IntakeCore> intake;
     std::vector<unsigned> answers;  // per request
     std::map<shm::Status, std::size_t> statuses;
     std::vector<shm::Status> last;  // each route's last answer
@@ -66,7 +66,7 @@ protected:
         ASSERT_TRUE(loop->start().has_value());
         leases = std::make_unique<ipc::LeasePolicy>(
             config, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 1}; });
-        intake = std::make_unique<ipc::IntakeCore<Route>>(
+        intake = std::make_unique<ipc::IntakeCore>(
             config, *leases, [this](const master::ClientRequest& r) { return loop->submit(r).has_value(); });
     }
     void TearDown() override {

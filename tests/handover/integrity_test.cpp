@@ -35,7 +35,7 @@ namespace drivebus::test {
 namespace {
 
 using namespace std::chrono_literals;
-using Route = std::size_t;
+using Route = ipc::RouteId;
 
 const rtu::Instant kStart{std::chrono::seconds(1000)};
 constexpr rtu::Duration kLease = 300ms;
@@ -107,7 +107,7 @@ public:
         line_->set_recording(false);
         line_->set_handled([this](const rtu::Frame& f, rtu::Instant at) { record(f, at); });
         leases_ = std::make_unique<ipc::LeasePolicy>(config_, [this] { return shm::LeaseToken{rng_(), rng_() | 1U}; });
-        intake_ = std::make_unique<ipc::IntakeCore<Route>>(
+        intake_ = std::make_unique<ipc::IntakeCore>(
             config_, *leases_, [this](const master::ClientRequest& r) { return handover_->requests.try_push(r); });
 
         const std::vector<Role> roles{Role::Honest, Role::Honest, Role::Impostor, Role::Impostor, Role::Reader};
@@ -353,8 +353,7 @@ private:
             by_reference_[*reference] = route;
         }
         c.waiting = true;
-        Route r_route = route;
-        if (auto answer = intake_->accept(r, r_route, engine_->up(), now)) {
+        if (auto answer = intake_->accept(r, route, engine_->up(), now)) {
             deliver(route, *answer);
         }
     }
@@ -537,7 +536,7 @@ private:
     std::unique_ptr<master::BusEngine> engine_;
     std::unique_ptr<VirtualLine> line_;
     std::unique_ptr<ipc::LeasePolicy> leases_;
-    std::unique_ptr<ipc::IntakeCore<Route>> intake_;
+    std::unique_ptr<ipc::IntakeCore> intake_;
     std::vector<Client> clients_;
     std::map<std::uint16_t, std::uint16_t> selectors_;  // as drivebusd set them up
     std::vector<Sent> sent_;

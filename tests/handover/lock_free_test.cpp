@@ -36,7 +36,9 @@ TEST(LockFree, NothingBetweenTheBusThreadAndTheIpcThreadTakesALock) {
         "daemon/ipc/include/ipc/intake.hpp",
         "daemon/ipc/intake.cpp",
         "daemon/ipc_core/include/ipc/intake_core.hpp",
+        "daemon/ipc_core/intake_core.cpp",
         "daemon/ipc_core/include/ipc/pending.hpp",
+        "daemon/ipc_core/pending.cpp",
         "daemon/ipc/include/ipc/publisher.hpp",
         "daemon/ipc/publisher.cpp",
     };

@@ -528,7 +528,7 @@ TEST(LeasePolicy, AnUnrenewedCarriedLeaseRunsOutAtItsOldDeadline) {
 }
 
 TEST(PendingBook, BooksUpToTheLimitAndEveryEntryLeavesOnce) {
-    PendingBook<int> book(2);
+    PendingBook book(2);
     const auto first = book.book(Origin{}, 1);
     const auto second = book.book(Origin{}, 2);
     ASSERT_TRUE(first && second);
@@ -538,7 +538,7 @@ TEST(PendingBook, BooksUpToTheLimitAndEveryEntryLeavesOnce) {
     EXPECT_EQ(book.clients_in_flight(), 2U);
     const auto done = book.finish(*first);
     ASSERT_TRUE(done && done->route);
-    EXPECT_EQ(*done->route, 1);
+    EXPECT_EQ(*done->route, 1U);
     EXPECT_FALSE(book.finish(*first).has_value()) << "an entry leaves once";
     EXPECT_TRUE(book.book(Origin{}, 4).has_value());
     const auto mine = book.finish(own);

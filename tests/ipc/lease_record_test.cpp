@@ -338,7 +338,7 @@ TEST(LeaseRecord, TheRecordNamesTheHolderBeforeItsFirstCommandIsSent) {
     const auto b = bus();
     LeasePolicy p(b, counting_tokens());
     std::vector<std::string> events;
-    IntakeCore<int> intake(
+    IntakeCore intake(
         b, p,
         [&](const master::ClientRequest&) {
             events.emplace_back("submit");
@@ -358,7 +358,7 @@ TEST(LeaseRecord, TheRecordNamesTheHolderBeforeItsFirstCommandIsSent) {
     r.start = 0xFA00;
     r.values[0] = 0xC400;
     r.count = 1;
-    int route = 0;
+    RouteId route = 0;
     ASSERT_FALSE(intake.accept(r, route, true, rtu::Instant{}).has_value());
     EXPECT_EQ(events, (std::vector<std::string>{"record a", "submit"}));
     // Another client's command is refused: nothing journaled, nothing sent.
@@ -384,7 +384,7 @@ TEST(LeaseRecord, AClosedIntakeTakesNoLeaseAndSendsNothing) {
     const auto b = bus();
     LeasePolicy p(b, counting_tokens());
     std::size_t submitted = 0;
-    IntakeCore<int> intake(b, p, [&](const master::ClientRequest&) { return ++submitted, true; });
+    IntakeCore intake(b, p, [&](const master::ClientRequest&) { return ++submitted, true; });
     intake.close();
     shm::Request r{};
     r.size = sizeof r;
@@ -393,7 +393,7 @@ TEST(LeaseRecord, AClosedIntakeTakesNoLeaseAndSendsNothing) {
     r.start = 0xFA00;
     r.values[0] = 0xC400;
     r.count = 1;
-    int route = 0;
+    RouteId route = 0;
     const auto answer = intake.accept(r, route, true, rtu::Instant{});
     ASSERT_TRUE(answer.has_value());
     EXPECT_EQ(answer->status, shm::Status::BusDown);

@@ -12,13 +12,14 @@
 #include <vector>
 
 #include "config/config.hpp"
+#include "ipc/convert.hpp"
 #include "ipc/intake_core.hpp"
 
 namespace drivebus::ipc {
 namespace {
 
 using namespace std::chrono_literals;
-using Route = int;
+using Route = RouteId;
 
 constexpr std::string_view kConfig = R"([[bus]]
 name = "line1"
@@ -66,10 +67,10 @@ struct World {
     config::BusConfig bus = pump_bus();
     LeasePolicy leases{bus, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 7}; }};
     std::vector<master::ClientRequest> submitted;
-    IntakeCore<Route> intake{bus, leases, [this](const master::ClientRequest& r) {
-                                 submitted.push_back(r);
-                                 return true;
-                             }};
+    IntakeCore intake{bus, leases, [this](const master::ClientRequest& r) {
+                          submitted.push_back(r);
+                          return true;
+                      }};
     std::vector<std::string> fallbacks;  // "time drive" of each fallback write
 
     // Accepts `r`; nullopt: booked, and the bus has it (submitted.back()).
@@ -342,8 +343,8 @@ TEST(IntakeNotes, ARejectedRequestIsANoteForTheCaller) {
     LeasePolicy leases{bus, [] { return shm::LeaseToken{1, 7}; }};
     std::vector<Note> notes;
     std::size_t submitted = 0;
-    IntakeCore<Route> intake{bus, leases, [&](const master::ClientRequest&) { return ++submitted, true; },
-                             {},  {},     [&](const Note& note) { notes.push_back(note); }};
+    IntakeCore intake{bus, leases, [&](const master::ClientRequest&) { return ++submitted, true; },
+                      {},  {},     [&](const Note& note) { notes.push_back(note); }};
     Route route = 0;
     const auto answer = intake.accept(write(1, 0x1234, {1}), route, true, t0);
     ASSERT_TRUE(answer.has_value());

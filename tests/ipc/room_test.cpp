@@ -21,7 +21,7 @@ Origin from(std::uint64_t client) {
 }
 
 TEST(QueueRoom, ReadersFillOnlyTheSharedRoomEachWithinItsShare) {
-    PendingBook<int> book(64);
+    PendingBook book(64);
     EXPECT_EQ(book.shared_room(), 48U);
     EXPECT_EQ(book.share(), 12U);
     // Six clients try to keep 12 reads each in flight: 72 against a room of 48.
@@ -41,7 +41,7 @@ TEST(QueueRoom, ReadersFillOnlyTheSharedRoomEachWithinItsShare) {
     ASSERT_TRUE(book.finish(1).has_value());
     EXPECT_TRUE(book.book(from(8), 0).has_value());
     // One client alone never holds more than its share, whatever room it asks for.
-    PendingBook<int> alone(64);
+    PendingBook alone(64);
     std::size_t mine = 0;
     for (int i = 0; i < 100; ++i) {
         mine += alone.book(from(1), 0, i % 2 == 0 ? Room::Shared : Room::Control).has_value() ? 1U : 0U;
@@ -52,7 +52,7 @@ TEST(QueueRoom, ReadersFillOnlyTheSharedRoomEachWithinItsShare) {
 
 // The share is the port's: a client that writes another id in each request still holds one.
 TEST(QueueRoom, AClientThatChangesItsIdWithEachRequestStillHasOneShare) {
-    PendingBook<int> book(64);
+    PendingBook book(64);
     std::size_t booked = 0;
     for (std::uint64_t id = 1; id <= 48; ++id) {
         Origin o = from(id);
@@ -65,7 +65,7 @@ TEST(QueueRoom, AClientThatChangesItsIdWithEachRequestStillHasOneShare) {
 
 // A withdrawal finds a request only through the port that sent it.
 TEST(QueueRoom, OnlyThePortThatSentARequestFindsIt) {
-    PendingBook<int> book(64);
+    PendingBook book(64);
     Origin o = from(5);
     o.correlation = 9;
     const auto id = book.book(o, 0);
@@ -75,11 +75,11 @@ TEST(QueueRoom, OnlyThePortThatSentARequestFindsIt) {
 }
 
 TEST(QueueRoom, SmallLimitsStillServeOneClient) {
-    PendingBook<int> two(2);
+    PendingBook two(2);
     EXPECT_TRUE(two.book(from(1), 0).has_value());
     EXPECT_TRUE(two.book(from(1), 0).has_value());
     EXPECT_FALSE(two.book(from(1), 0).has_value());
-    PendingBook<int> one(1);
+    PendingBook one(1);
     EXPECT_TRUE(one.book(from(1), 0).has_value());
 }
 
@@ -118,7 +118,7 @@ TEST(QueueRoom, AControllerCommandsAtOnceWhileReadersFlood) {
     const auto bus = c->buses.at(0);
     LeasePolicy leases(bus, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 3}; });
     std::size_t submitted = 0;
-    IntakeCore<int> intake(bus, leases, [&](const master::ClientRequest&) {
+    IntakeCore intake(bus, leases, [&](const master::ClientRequest&) {
         ++submitted;
         return true;
     });
@@ -126,13 +126,13 @@ TEST(QueueRoom, AControllerCommandsAtOnceWhileReadersFlood) {
     int full = 0;
     for (int k = 0; k < 12; ++k) {
         for (std::uint64_t reader = 1; reader <= 6; ++reader) {
-            int route = 0;
+            RouteId route = 0;
             const auto a = intake.accept(request(shm::RequestKind::Read, reader, 0xFD00), route, true, now);
             full += a && a->status == shm::Status::QueueFull ? 1 : 0;
         }
     }
     EXPECT_EQ(full, 72 - 48) << "the readers get QueueFull past the shared room";
-    int route = 0;
+    RouteId route = 0;
     EXPECT_FALSE(intake.accept(request(shm::RequestKind::Write, 9, 0xFA01, 2000), route, true, now).has_value())
         << "the reference: booked for the bus";
     auto command = request(shm::RequestKind::Write, 9, 0xFA00, 0xC400);
@@ -157,21 +157,20 @@ TEST(QueueRoom, ARotatingIdFloodFromOnePortIsHeldToItsShare) {
     ASSERT_TRUE(c.has_value()) << c.error().message;
     const auto bus = c->buses.at(0);
     LeasePolicy leases(bus, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 3}; });
-    IntakeCore<int> intake(
-        bus, leases, [](const master::ClientRequest&) { return true; }, {},
-        [](const int& route) { return static_cast<std::uint64_t>(route); });
+    IntakeCore intake(
+        bus, leases, [](const master::ClientRequest&) { return true; }, {}, [](RouteId route) { return route; });
     const rtu::Instant now{std::chrono::seconds(5)};
     int full = 0;
     for (std::uint64_t id = 1; id <= 48; ++id) {
-        int port = 1;
+        RouteId port = 1;
         const auto a = intake.accept(request(shm::RequestKind::Read, id, 0xFD00), port, true, now);
         full += a && a->status == shm::Status::QueueFull ? 1 : 0;
     }
     EXPECT_EQ(full, 48 - static_cast<int>(intake.book().share()));
-    int controller = 2;
+    RouteId controller = 2;
     EXPECT_FALSE(intake.accept(request(shm::RequestKind::Write, 1000, 0xFA01, 2000), controller, true, now))
         << "the controller's reference: booked for the bus";
-    int reader = 3;
+    RouteId reader = 3;
     EXPECT_FALSE(intake.accept(request(shm::RequestKind::Read, 1001, 0xFD00), reader, true, now))
         << "a reader on a third port: the shared room has room";
 }

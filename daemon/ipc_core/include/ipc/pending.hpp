@@ -3,8 +3,8 @@
 // limit: a client request is booked only while fewer than `limit` are in flight, so the bus's
 // rings and queues, sized to the same limit, can never refuse one for room. Every booked
 // entry leaves by finish(), when the bus hands back its result or its refusal: each request
-// gets exactly one answer, and the book returns to empty. Pure; `Route` is whatever the
-// caller needs to answer (an iceoryx request header), opaque here.
+// gets exactly one answer, and the book returns to empty. Pure; a request's route (RouteId) is
+// the caller's, opaque here.
 //
 // Within the limit, no flood can lock control out: a quarter of it (the control room) is kept
 // for writes to a drive's command or reference under its lease (Room::Control), which every
@@ -15,7 +15,6 @@
 // request still has one share.
 #pragma once
 
-#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -50,89 +49,40 @@ struct Origin {
     std::uint64_t port = 0;
 };
 
-template <typename Route>
+// What a caller answers a request through, chosen by the caller (drivebusd: a key to the
+// iceoryx request headers it keeps): opaque here, handed back with the request's answer.
+using RouteId = std::uint64_t;
+
 class PendingBook {
 public:
     struct Entry {
         Origin origin;
-        std::optional<Route> route;       // empty for drivebusd's own requests
-        std::optional<Route> withdrawal;  // the client's Withdraw of it, waiting for the bus's word
-        bool withdrawal_asked = false;    // one per request: the rings hold one withdrawal each
+        std::optional<RouteId> route;       // empty for drivebusd's own requests
+        std::optional<RouteId> withdrawal;  // the client's Withdraw of it, waiting for the bus's word
+        bool withdrawal_asked = false;      // one per request: the rings hold one withdrawal each
     };
 
-    explicit PendingBook(std::size_t limit)
-        : limit_(limit),
-          shared_room_(limit - limit / 4),
-          share_(std::max(shared_room_ / 4, std::min<std::size_t>(shared_room_, 4))) {}
+    explicit PendingBook(std::size_t limit);
 
     // A client request: its id for the bus, or nullopt when there is no room for it (answer
     // QueueFull): `limit` in flight, the shared room full (Room::Shared), or its port's share
     // taken.
-    std::optional<std::uint64_t> book(Origin origin, Route route, Room room = Room::Shared) {
-        auto& mine = per_port_[origin.port];
-        if (clients_ >= limit_ || (room == Room::Shared && shared_ >= shared_room_) || mine >= share_) {
-            if (mine == 0) {
-                per_port_.erase(origin.port);
-            }
-            return std::nullopt;
-        }
-        ++clients_;
-        ++mine;
-        origin.room = room;
-        shared_ += room == Room::Shared ? 1 : 0;
-        return add(Entry{std::move(origin), std::move(route), std::nullopt, false});
-    }
+    std::optional<std::uint64_t> book(Origin origin, RouteId route, Room room = Room::Shared);
     // drivebusd's own (a lease fallback): outside the clients' limit; the bus sizes its rings
     // for one per drive.
-    std::uint64_t book_own(Origin origin) {
-        origin.fallback = true;
-        return add(Entry{std::move(origin), std::nullopt, std::nullopt, false});
-    }
+    std::uint64_t book_own(Origin origin);
     // The bus answered `id`: the entry leaves the book. Nullopt for an id not booked.
-    std::optional<Entry> finish(std::uint64_t id) {
-        auto it = entries_.find(id);
-        if (it == entries_.end()) {
-            return std::nullopt;
-        }
-        Entry e = std::move(it->second);
-        entries_.erase(it);
-        if (!e.origin.fallback) {
-            --clients_;
-            shared_ -= e.origin.room == Room::Shared ? 1 : 0;
-            if (const auto c = per_port_.find(e.origin.port); c != per_port_.end() && --c->second == 0) {
-                per_port_.erase(c);
-            }
-        }
-        return e;
-    }
+    std::optional<Entry> finish(std::uint64_t id);
 
     // The entry of a client's request, by its port, the client's own id and correlation: only
     // the port that sent a request finds it.
     [[nodiscard]] std::optional<std::uint64_t> find(std::uint64_t port, std::uint64_t client,
-                                                    std::uint64_t correlation) const {
-        for (const auto& [id, e] : entries_) {
-            if (!e.origin.fallback && e.origin.port == port && e.origin.client == client &&
-                e.origin.correlation == correlation) {
-                return id;
-            }
-        }
-        return std::nullopt;
-    }
-    [[nodiscard]] Entry* entry(std::uint64_t id) {
-        const auto it = entries_.find(id);
-        return it == entries_.end() ? nullptr : &it->second;
-    }
+                                                    std::uint64_t correlation) const;
+    [[nodiscard]] Entry* entry(std::uint64_t id);
 
     [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
     // Every id booked, in no particular order.
-    [[nodiscard]] std::vector<std::uint64_t> ids() const {
-        std::vector<std::uint64_t> out;
-        out.reserve(entries_.size());
-        for (const auto& [id, entry] : entries_) {
-            out.push_back(id);
-        }
-        return out;
-    }
+    [[nodiscard]] std::vector<std::uint64_t> ids() const;
     [[nodiscard]] std::size_t clients_in_flight() const noexcept { return clients_; }
     [[nodiscard]] std::size_t limit() const noexcept { return limit_; }
     // What Room::Shared requests may fill, and what one port may hold.
@@ -140,11 +90,7 @@ public:
     [[nodiscard]] std::size_t share() const noexcept { return share_; }
 
 private:
-    std::uint64_t add(Entry e) {
-        const std::uint64_t id = next_id_++;
-        entries_.emplace(id, std::move(e));
-        return id;
-    }
+    std::uint64_t add(Entry e);
 
     std::size_t limit_;
     std::size_t shared_room_;
