@@ -11,6 +11,7 @@
 #include <cstring>
 #include <variant>
 
+#include "bus_toml.hpp"
 #include "config/config.hpp"
 #include "fuzz_support.hpp"
 #include "ipc/admission.hpp"
@@ -22,25 +23,11 @@ using fuzz::check;
 
 namespace {
 
-constexpr std::string_view kConfig = R"([[bus]]
-name = "line1"
-device = "/dev/ttyUSB0"
-parity = "none"
-  [[bus.drive]]
-  name = "pump"
-  address = 1
-  profile = "atv21"
-  [[bus.drive]]
-  name = "fan"
-  address = 2
-  profile = "atv58"
-)";
-
 const config::BusConfig& bus() {
     static const config::BusConfig b = [] {
         config::LoadOptions options;
         options.profile_dir = DRIVEBUS_FUZZ_PROFILE_DIR;
-        auto c = config::parse_config(kConfig, "fuzz.toml", options);
+        auto c = config::parse_config(test::pump_and_fan_toml(), "fuzz.toml", options);
         if (!c) {
             fuzz::fail(c.error().message);
         }

@@ -10,6 +10,7 @@
 #include "ipc/lease_policy.hpp"
 #include "ipc/pending.hpp"
 #include "master/block_setup.hpp"
+#include "read_bus.hpp"
 
 namespace drivebus::ipc {
 namespace {
@@ -17,30 +18,13 @@ namespace {
 using namespace std::chrono_literals;
 using shm::RejectReason;
 
-constexpr std::string_view kConfig = R"([[bus]]
-name = "line1"
-device = "/dev/ttyUSB0"
-parity = "none"
-  [[bus.drive]]
-  name = "pump"
-  address = 1
-  profile = "atv21"
-  lease = "500ms"
-  [[bus.drive]]
-  name = "fan"
-  address = 2
-  profile = "atv58"
-)";
+// The pump, its lease 500 ms, and the fan.
+config::BusConfig bus() {
+    return test::read_bus(test::pump_and_fan_toml({R"(lease = "500ms")"}));
+}
 
-config::BusConfig bus(std::string_view text = kConfig) {
-    config::LoadOptions options;
-    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
-    auto c = config::parse_config(text, "test.toml", options);
-    if (!c) {
-        ADD_FAILURE() << c.error().message;
-        return {};
-    }
-    return c->buses.at(0);
+config::BusConfig bus(std::string_view text) {
+    return test::read_bus(text);
 }
 
 shm::Request request(shm::RequestKind kind, std::string_view drive, std::uint16_t start,

@@ -8,37 +8,15 @@
 #include "ipc/intake_core.hpp"
 #include "ipc/lease_policy.hpp"
 #include "ipc/lease_record.hpp"
+#include "read_bus.hpp"
 
 namespace drivebus::ipc {
 namespace {
 
 using namespace std::chrono_literals;
 
-constexpr std::string_view kConfig = R"([[bus]]
-name = "line1"
-device = "/dev/ttyUSB0"
-parity = "none"
-  [[bus.drive]]
-  name = "pump"
-  address = 1
-  profile = "atv21"
-  lease = "500ms"
-  fallback = "stop"
-  [[bus.drive]]
-  name = "fan"
-  address = 2
-  profile = "atv58"
-)";
-
 config::BusConfig bus() {
-    config::LoadOptions options;
-    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
-    auto c = config::parse_config(kConfig, "test.toml", options);
-    if (!c) {
-        ADD_FAILURE() << c.error().message;
-        return {};
-    }
-    return c->buses.at(0);
+    return test::read_bus(test::pump_and_fan_toml({R"(lease = "500ms")", R"(fallback = "stop")"}));
 }
 
 TokenSource counting_tokens() {

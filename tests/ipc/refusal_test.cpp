@@ -14,6 +14,7 @@
 #include "config/config.hpp"
 #include "ipc/convert.hpp"
 #include "ipc/intake_core.hpp"
+#include "read_bus.hpp"
 
 namespace drivebus::ipc {
 namespace {
@@ -21,28 +22,9 @@ namespace {
 using namespace std::chrono_literals;
 using Route = RouteId;
 
-constexpr std::string_view kConfig = R"([[bus]]
-name = "line1"
-device = "/dev/ttyUSB0"
-parity = "none"
-  [[bus.drive]]
-  name = "pump"
-  address = 1
-  profile = "atv21"
-  lease = "500ms"
-  fallback = "stop"
-  write_block = ["FA00", "FA01"]
-)";
-
 config::BusConfig pump_bus() {
-    config::LoadOptions options;
-    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
-    auto c = config::parse_config(kConfig, "test.toml", options);
-    if (!c) {
-        ADD_FAILURE() << c.error().message;
-        return {};
-    }
-    return c->buses.at(0);
+    return test::read_bus(
+        test::pump_toml({R"(lease = "500ms")", R"(fallback = "stop")", R"(write_block = ["FA00", "FA01"])"}));
 }
 
 const rtu::Instant t0{std::chrono::seconds(100)};

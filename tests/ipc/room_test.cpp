@@ -6,6 +6,7 @@
 
 #include "config/config.hpp"
 #include "ipc/intake_core.hpp"
+#include "read_bus.hpp"
 
 namespace drivebus::ipc {
 namespace {
@@ -83,16 +84,6 @@ TEST(QueueRoom, SmallLimitsStillServeOneClient) {
     EXPECT_TRUE(one.book(from(1), 0).has_value());
 }
 
-constexpr std::string_view kConfig = R"([[bus]]
-name = "line1"
-device = "/dev/ttyUSB0"
-parity = "none"
-  [[bus.drive]]
-  name = "pump"
-  address = 1
-  profile = "atv21"
-)";
-
 shm::Request request(shm::RequestKind kind, std::uint64_t client, std::uint16_t start, std::uint16_t value = 0) {
     shm::Request r;
     r.size = sizeof r;
@@ -111,11 +102,8 @@ shm::Request request(shm::RequestKind kind, std::uint64_t client, std::uint16_t 
 // are taken at once, and the first takes the lease; a write of another register is not
 // (it waits for room like a read).
 TEST(QueueRoom, AControllerCommandsAtOnceWhileReadersFlood) {
-    config::LoadOptions options;
-    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
-    auto c = config::parse_config(kConfig, "test.toml", options);
-    ASSERT_TRUE(c.has_value()) << c.error().message;
-    const auto bus = c->buses.at(0);
+    const auto bus = test::read_bus(test::pump_toml());
+    ASSERT_FALSE(HasFailure());
     LeasePolicy leases(bus, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 3}; });
     std::size_t submitted = 0;
     IntakeCore intake(bus, leases, [&](const master::ClientRequest&) {
@@ -151,11 +139,8 @@ TEST(QueueRoom, AControllerCommandsAtOnceWhileReadersFlood) {
 // port rotating its client id gets QueueFull past its share, while a controller on another
 // port commands at once.
 TEST(QueueRoom, ARotatingIdFloodFromOnePortIsHeldToItsShare) {
-    config::LoadOptions options;
-    options.profile_dir = DRIVEBUS_TEST_PROFILE_DIR;
-    auto c = config::parse_config(kConfig, "test.toml", options);
-    ASSERT_TRUE(c.has_value()) << c.error().message;
-    const auto bus = c->buses.at(0);
+    const auto bus = test::read_bus(test::pump_toml());
+    ASSERT_FALSE(HasFailure());
     LeasePolicy leases(bus, [n = std::uint64_t{0}]() mutable { return shm::LeaseToken{++n, 3}; });
     IntakeCore intake(
         bus, leases, [](const master::ClientRequest&) { return true; }, {}, [](RouteId route) { return route; });
