@@ -26,7 +26,7 @@ from pathlib import Path
 # A layer (the folder its sources are in) and the folders whose include directories it must
 # not be given. The first rule whose folder holds the file applies.
 DAEMON = ["daemon/"]
-EDGES = ["client/", "sim/", "gateway/", "mqtt/"]
+EDGES = ["client/", "sim/", "gateway/", "mqtt/", "python/"]
 RULES = [
     ("lib/rtu/", ["lib/", "include"] + DAEMON + EDGES),
     ("lib/duration/", ["lib/", "include"] + DAEMON + EDGES),
@@ -48,12 +48,14 @@ RULES = [
     ("daemon/ipc_core/", ["daemon/bus/", "daemon/ipc/"] + EDGES),
     ("daemon/bus/", ["daemon/ipc/", "daemon/ipc_core/"] + EDGES),
     ("daemon/", EDGES),
-    ("sim/", DAEMON + ["client/", "gateway/", "mqtt/"]),
-    # The gateway and the MQTT bridge are libdrivebus clients: its public headers, never
+    ("sim/", DAEMON + ["client/", "gateway/", "mqtt/", "python/"]),
+    # The gateway, the MQTT bridge and the Python module are libdrivebus clients: its public headers, never
     # drivebusd's layers, the library's insides or each other.
-    ("gateway/", DAEMON + ["client/", "sim/", "mqtt/"]),
-    ("client/", DAEMON + ["sim/", "gateway/", "mqtt/"]),
-    ("mqtt/", DAEMON + ["client/", "sim/", "gateway/"]),
+    ("gateway/", DAEMON + ["client/", "sim/", "mqtt/", "python/"]),
+    ("client/", DAEMON + ["sim/", "gateway/", "mqtt/", "python/"]),
+    ("mqtt/", DAEMON + ["client/", "sim/", "gateway/", "python/"]),
+    # The Python module is libdrivebus's public API in Python, nothing else.
+    ("python/", DAEMON + ["client/", "sim/", "gateway/", "mqtt/"]),
 ]
 
 # Folders, the public headers none of their files may include, and why.

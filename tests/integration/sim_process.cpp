@@ -274,12 +274,12 @@ bool roudi_gone() {
     return !held;
 }
 
-std::pair<int, std::string> run_program(const std::vector<std::string>& argv) {
+std::pair<int, std::string> run_program(const std::vector<std::string>& argv, std::chrono::seconds limit) {
     const fs::path dir = fresh_dir();
     const fs::path log = dir / "out.log";
     std::vector<std::string> args(argv.begin() + 1, argv.end());
     const int pid = spawn(argv.front(), args, log);
-    const int status = wait_exit(pid, 10s);
+    const int status = wait_exit(pid, limit);
     std::string out = slurp(log);
     std::error_code ec;
     fs::remove_all(dir, ec);

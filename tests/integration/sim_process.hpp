@@ -35,6 +35,8 @@ public:
     SimProcess& operator=(SimProcess&&) = delete;
 
     [[nodiscard]] const std::filesystem::path& link() const noexcept { return link_; }
+    // Its control socket (a line in, a line back), for programs that command it themselves.
+    [[nodiscard]] const std::filesystem::path& control() const noexcept { return control_; }
     // Sends one control command and returns the answer line.
     [[nodiscard]] std::string command(const std::string& line) const;
     // The Altivar 21 at `address` as a drive commissioned before: F875 onwards hold `selectors`
@@ -86,8 +88,9 @@ bool roudi_answers();
 // started in between refuses to start).
 bool roudi_gone();
 
-// Runs a program to completion (10 s at most); returns its exit status and output.
-std::pair<int, std::string> run_program(const std::vector<std::string>& argv);
+// Runs a program to completion (`limit` at most: then killed); returns its exit status and output.
+std::pair<int, std::string> run_program(const std::vector<std::string>& argv,
+                                        std::chrono::seconds limit = std::chrono::seconds(10));
 
 // Runs drivebus-sim to completion with `args` (for argument errors); returns its exit status
 // and stderr.
