@@ -84,6 +84,7 @@ Tally run(double factor) {
             }
             asked.push_back(reg);
         }
+        const auto before = loop.status().counters;
         const bool answered = wait_until(
             [&] {
                 const std::lock_guard lock(mutex);
@@ -91,7 +92,14 @@ Tally run(double factor) {
             },
             30s);
         if (!answered) {
-            tally.failure = "answers " + std::to_string(results.size()) + " of " + std::to_string(asked.size());
+            // Slow (the line still busy: transmissions went on) or stuck (nothing moved)?
+            const auto c = loop.status().counters;
+            tally.failure = "answers " + std::to_string(results.size()) + " of " + std::to_string(asked.size()) +
+                            " after 30 s; the line: " + std::to_string(c.transmissions) + " transmissions (" +
+                            std::to_string(c.transmissions - before.transmissions) + " while it waited), " +
+                            std::to_string(c.replies) + " replies, " + std::to_string(c.timeouts) + " time-outs, " +
+                            std::to_string(c.late_replies) + " late, " + std::to_string(c.retries) + " retries, " +
+                            std::to_string(c.sync_probes) + " sync probes";
             return tally;
         }
     }
