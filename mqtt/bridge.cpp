@@ -24,7 +24,7 @@ void log_note(const RelayNote& n) {
 
 }  // namespace
 
-Bridge::Bridge(const Config& config) : config_(config), topics_(config.node) {
+Bridge::Bridge(const Config& config) : config_(config), topics_(config.node), inbox_(config.limits.command_queue) {
     link_ = std::make_unique<BrokerLink>(
         config_, BrokerLink::Callbacks{.connected = [this] { on_connected(); },
                                        .message = [this](std::string_view t, std::string_view p,
@@ -55,9 +55,8 @@ void Bridge::on_connected() {
     wake();
 }
 
-// On the network thread: queued for the loop, which wakes. Bounded: past the Commander's own
-// queue and as many again arriving at once, a command is refused here, without parsing more
-// than its id.
+// On the network thread: queued for the loop, which wakes; past the inbox's bound, refused at
+// once (mqtt/inbox.hpp).
 void Bridge::on_message(std::string_view topic, std::string_view payload, bool retained) {
     const auto received = std::chrono::system_clock::now();
     const auto arrived = Clock::now();
@@ -65,20 +64,17 @@ void Bridge::on_message(std::string_view topic, std::string_view payload, bool r
     if (!target) {
         return;
     }
+    std::optional<Inbound> refused;
     {
         std::lock_guard lock(mutex_);
-        if (inbox_.size() < 2 * config_.limits.command_queue + 16) {
-            inbox_.push_back(Inbound{std::move(*target), std::string(payload), retained, received, arrived});
-            wake();
-            return;
-        }
+        refused = inbox_.offer(Inbound{std::move(*target), std::string(payload), retained, received, arrived});
     }
-    const auto parsed = parse_command(payload, config_.limits.max_payload);
-    const Json id = parsed ? parsed->id : parsed.error().id;
-    link_->publish(
-        topics_.result(target->bus, target->drive),
-        result_error(id, "busy", "the bridge has more commands arriving than it takes: try again later").dump(), 1,
-        false);
+    if (!refused) {
+        wake();
+        return;
+    }
+    const auto result = refused_busy(*refused, config_.limits.max_payload);
+    link_->publish(topics_.result(result.bus, result.drive), result.payload.dump(), 1, false);
 }
 
 void Bridge::run() {
@@ -104,7 +100,7 @@ void Bridge::run() {
                 break;
             }
             republish = std::exchange(republish_, false);
-            taken.swap(inbox_);
+            taken = inbox_.take();
         }
         for (auto& m : taken) {
             relay_->message(m.target, m.payload, m.retained, m.received, m.arrived);

@@ -5,7 +5,6 @@
 // network thread (libmosquitto's) only queues the messages and wakes it.
 #pragma once
 
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -14,6 +13,7 @@
 #include "broker_link.hpp"
 #include "daemon_link.hpp"
 #include "mqtt/config.hpp"
+#include "mqtt/inbox.hpp"
 #include "mqtt/relay.hpp"
 #include "mqtt/topics.hpp"
 #include "sys/event_fd.hpp"
@@ -34,15 +34,6 @@ public:
     void stop();
 
 private:
-    // A message on a set topic, as the network thread took it.
-    struct Inbound {
-        Topics::Target target;
-        std::string payload;
-        bool retained = false;
-        WallTime received;          // the wall clock when it arrived: its sent_at is compared with this
-        Clock::time_point arrived;  // the same moment on the steady clock: its wait is measured from this
-    };
-
     void on_connected();
     void on_message(std::string_view topic, std::string_view payload, bool retained);
     void wake() const { wake_.signal(); }
@@ -57,7 +48,7 @@ private:
     sys::EventFd wake_{"eventfd to wake the bridge's loop"};
     bool stopping_ = false;
     bool republish_ = false;
-    std::deque<Inbound> inbox_;
+    Inbox inbox_;
 };
 
 }  // namespace drivebus::mqtt

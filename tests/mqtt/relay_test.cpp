@@ -8,6 +8,7 @@
 #include <deque>
 #include <map>
 
+#include "mqtt/inbox.hpp"
 #include "mqtt/relay.hpp"
 
 namespace drivebus::mqtt {
@@ -510,6 +511,42 @@ TEST_F(MqttRelay, ADroppedRelayEndsItsDrivesSubscriptionsAndItsBuses) {
     relay_.reset();
     EXPECT_TRUE(line().sinks.empty());
     EXPECT_EQ(line().ports, 0);
+}
+
+// The network thread's hand-over, flooded: the Commander's queue and as many again, plus 16,
+// are kept in order; the rest come back to be refused as busy, with their ids.
+TEST(MqttInbox, AFloodBeyondItsBoundIsGivenBackToBeRefusedAsBusy) {
+    Inbox inbox(4);
+    ASSERT_EQ(inbox.bound(), 24U);
+    const auto message = [](int i) {
+        return Inbound{Topics::Target{"line1", "pump"}, Json{{"id", "f" + std::to_string(i)}, {"frequency", 10}}.dump(),
+                       false, kWall, kT0};
+    };
+    std::vector<Inbound> refused;
+    for (int i = 0; i < 300; ++i) {
+        if (auto back = inbox.offer(message(i))) {
+            refused.push_back(std::move(*back));
+        }
+    }
+    EXPECT_EQ(inbox.size(), 24U);
+    ASSERT_EQ(refused.size(), 276U);
+    const auto busy = refused_busy(refused.front(), 4096);
+    EXPECT_EQ(busy.bus, "line1");
+    EXPECT_EQ(busy.drive, "pump");
+    EXPECT_EQ(busy.payload["id"], "f24");
+    EXPECT_EQ(busy.payload["reason"], "busy");
+    EXPECT_EQ(busy.payload["ok"], false);
+    // Too large to read: refused without its id.
+    Inbound huge = message(0);
+    huge.payload = std::string(200000, '{');
+    EXPECT_TRUE(refused_busy(huge, 4096).payload["id"].is_null());
+    const auto taken = inbox.take();
+    ASSERT_EQ(taken.size(), 24U);
+    for (std::size_t i = 0; i < taken.size(); ++i) {
+        EXPECT_EQ(Json::parse(taken[i].payload)["id"], "f" + std::to_string(i));
+    }
+    EXPECT_EQ(inbox.size(), 0U);
+    EXPECT_FALSE(inbox.offer(message(1000)));  // room again
 }
 
 }  // namespace
